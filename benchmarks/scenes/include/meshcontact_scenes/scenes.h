@@ -1,0 +1,85 @@
+#pragma once
+// The scene library shared by tests, benchmarks and examples: procedural,
+// seeded, deterministic meshes (the same seed gives bitwise the same mesh on
+// every machine: the generator is splitmix64, not <random>'s distributions).
+
+#include <meshcontact/geometry.h>
+#include <meshcontact/mesh.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace meshcontact::scenes {
+
+/// Vertices (x, y, z per vertex) and triangles (3 indices each), CCW front.
+struct SceneMesh {
+  std::vector<double> vertices;
+  std::vector<std::uint32_t> indices;
+
+  std::size_t vertexCount() const { return vertices.size() / 3; }
+  std::size_t triangleCount() const { return indices.size() / 3; }
+  Vec3 vertex(std::size_t i) const { return Vec3(vertices[3 * i], vertices[3 * i + 1], vertices[3 * i + 2]); }
+  MeshView view() const { return {vertices.data(), vertexCount(), indices.data(), triangleCount()}; }
+  std::uint32_t addVertex(const Vec3& p);
+  void addTriangle(std::uint32_t a, std::uint32_t b, std::uint32_t c);
+  /// Appends another mesh (indices shifted).
+  void append(const SceneMesh& other);
+};
+
+/// Deterministic pseudo-random numbers (splitmix64).
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next();
+  double uniform();                      // [0, 1)
+  double uniform(double lo, double hi);  // [lo, hi)
+  Vec3 unitVector();
+  /// A uniformly random rotation (quaternion from three uniforms, Shoemake).
+  Mat3 rotation();
+
+ private:
+  std::uint64_t state_;
+};
+
+/// A planar patch: origin + s * u + t * v for s, t in [0, 1], split in
+/// nu x nv cells, each cut along a random diagonal. Interior vertices are
+/// moved in the plane by up to `jitter` of a cell (boundary vertices stay put,
+/// so neighbouring patches meet at bitwise-equal positions). The front face
+/// is along u x v.
+void addGridPatch(SceneMesh& mesh, const Vec3& origin, const Vec3& u, const Vec3& v, int nu, int nv, Rng& rng,
+                  double jitter);
+
+/// Merges vertices with bitwise-equal positions (-0 == +0); keeps triangles.
+SceneMesh weld(const SceneMesh& mesh);
+/// Gives every triangle its own three vertices (like an STL file).
+SceneMesh unweld(const SceneMesh& mesh);
+
+/// Flat floor z = 0 over [0, nx*cell] x [0, ny*cell], random diagonals, in-plane jitter.
+SceneMesh flatFloor(int nx, int ny, double cell, std::uint64_t seed, double jitter = 0.25);
+
+/// The same floor as separate tile meshes of `cells_per_tile`^2 cells each;
+/// neighbouring tiles duplicate their shared vertices (bitwise equal).
+std::vector<SceneMesh> tiledFloor(int tiles_x, int tiles_y, int cells_per_tile, double cell, std::uint64_t seed,
+                                  double jitter = 0.25);
+
+/// A step (cliff): floor z = height for x < 0, a wall facing +x at x = 0, floor
+/// z = 0 for x > 0; each part `half_extent` wide in x and 2*half_extent in y.
+SceneMesh step(double half_extent, double height, double cell, std::uint64_t seed);
+/// A concave V-groove along y: two slopes at `slope_deg` from horizontal meeting at x = 0, z = 0.
+SceneMesh vGroove(double half_extent, double slope_deg, double cell, std::uint64_t seed);
+/// A convex ridge along y (the V-groove upside down), apex at x = 0, z = 0.
+SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t seed);
+
+/// A named scene: one or several pieces that form one surface.
+struct Scene {
+  std::string name;
+  std::vector<SceneMesh> pieces;
+  Vec3 lo, hi;  // box in which query shapes are placed
+};
+
+/// The accuracy scenes of DESIGN.md §5, each with a placement box around its
+/// interesting part: "flat", "step", "vgroove", "ridge", "tiles".
+std::vector<Scene> accuracyScenes(std::uint64_t seed);
+
+}  // namespace meshcontact::scenes

@@ -1,0 +1,122 @@
+#pragma once
+// A triangle mesh with its midphase (a bounding-volume hierarchy built by FCL).
+//
+// Conventions
+// - Triangles are (v0, v1, v2) with counter-clockwise winding seen from the
+//   front: the face normal is normalize((v1 - v0) x (v2 - v0)). Contacts are
+//   one-sided: a shape whose reference point is behind a triangle's plane gets
+//   no contact from that triangle (reference §4a, back-face culling).
+// - Coordinates are in the mesh's local frame.
+//
+// Ownership
+// - Storage::kCopy (default): the mesh copies the caller's arrays.
+// - Storage::kBorrow: the mesh keeps pointers to the caller's arrays, which
+//   must outlive the mesh and must not change while it exists (call build()
+//   again after changing them). Nothing else of the caller's is kept.
+// In both cases the mesh owns its BVH (two 32-byte nodes per triangle).
+//
+// Thread safety: a built mesh is immutable; any number of threads may query
+// it at once, each with its own QueryScratch.
+
+#include "meshcontact/geometry.h"
+#include "meshcontact/status.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace meshcontact {
+
+/// The caller's arrays: `vertices` holds 3 doubles (x, y, z) per vertex,
+/// `indices` 3 vertex indices per triangle.
+struct MeshView {
+  const double* vertices = nullptr;
+  std::size_t vertex_count = 0;
+  const std::uint32_t* indices = nullptr;
+  std::size_t triangle_count = 0;
+};
+
+enum class Storage : std::uint8_t { kCopy, kBorrow };
+
+/// One node of the flattened hierarchy. Boxes are stored in float, rounded
+/// outward, so they always contain the exact double-precision bounds.
+/// The two children of an inner node are adjacent: `first_child` and
+/// `first_child + 1`. A leaf has first_child < 0 and holds one triangle.
+struct BvhNode {
+  float lo[3];
+  std::int32_t first_child;
+  float hi[3];
+  std::uint32_t triangle;
+};
+static_assert(sizeof(BvhNode) == 32, "a node is half a cache line");
+
+class TriangleMesh {
+ public:
+  TriangleMesh() = default;
+  TriangleMesh(const TriangleMesh&) = delete;  // borrowed pointers and a large BVH: no implicit copies
+  TriangleMesh& operator=(const TriangleMesh&) = delete;
+  TriangleMesh(TriangleMesh&&) noexcept;
+  TriangleMesh& operator=(TriangleMesh&&) noexcept;
+  ~TriangleMesh();
+
+  /// Validates the arrays and builds the BVH. Errors (the mesh is left empty):
+  /// kEmptyMesh (no vertex or no triangle), kIndexOutOfRange (names the
+  /// triangle, corner and index), kNonFiniteVertex (names the vertex),
+  /// kTooLarge (more than 2^31 - 1 triangles or vertices).
+  /// Degenerate triangles (zero or numerically zero area) are valid input:
+  /// they are counted, left out of the BVH, and never produce a contact.
+  Status build(const MeshView& view, Storage storage = Storage::kCopy);
+
+  /// Convenience overload that copies.
+  Status build(const std::vector<double>& vertices, const std::vector<std::uint32_t>& indices) {
+    return build(MeshView{vertices.data(), vertices.size() / 3, indices.data(), indices.size() / 3},
+                 Storage::kCopy);
+  }
+
+  bool isBuilt() const { return built_; }
+  std::size_t vertexCount() const { return vertex_count_; }
+  std::size_t triangleCount() const { return triangle_count_; }
+  std::size_t degenerateTriangleCount() const { return degenerate_count_; }
+  /// True when two distinct vertex indices hold bitwise-equal positions (e.g. an
+  /// STL file). Index keys would then see a shared edge as two boundary edges,
+  /// so KeyMode::kAuto switches to position keys for this mesh.
+  bool hasDuplicateVertices() const { return has_duplicate_vertices_; }
+
+  Vec3 vertex(std::uint32_t i) const {
+    const double* p = vertices_ + 3 * static_cast<std::size_t>(i);
+    return Vec3(p[0], p[1], p[2]);
+  }
+  const std::uint32_t* triangle(std::uint32_t t) const { return indices_ + 3 * static_cast<std::size_t>(t); }
+
+  const std::vector<BvhNode>& bvh() const { return nodes_; }
+  int bvhDepth() const { return bvh_depth_; }
+  /// Bytes this mesh allocated itself (BVH, plus the arrays when copied).
+  std::size_t memoryBytes() const;
+
+  /// Appends to `out` the triangles whose bounds overlap the box [lo, hi]
+  /// (mesh frame), in BVH order. `stack` is scratch (kept for reuse).
+  /// Degenerate triangles are never reported.
+  void queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
+                std::vector<std::int32_t>& stack) const;
+
+ private:
+  void reset();
+
+  const double* vertices_ = nullptr;
+  const std::uint32_t* indices_ = nullptr;
+  std::size_t vertex_count_ = 0;
+  std::size_t triangle_count_ = 0;
+  std::size_t degenerate_count_ = 0;
+  bool has_duplicate_vertices_ = false;
+  bool built_ = false;
+  int bvh_depth_ = 0;
+  std::vector<double> owned_vertices_;
+  std::vector<std::uint32_t> owned_indices_;
+  std::vector<BvhNode> nodes_;
+};
+
+/// True when the triangle's area is zero relative to its size: |(b-a)x(c-a)|
+/// <= 1e-12 * (longest edge)^2. Such a triangle has no usable normal.
+bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c);
+
+}  // namespace meshcontact

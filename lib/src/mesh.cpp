@@ -1,0 +1,249 @@
+#include "meshcontact/mesh.h"
+
+#include <fcl/geometry/bvh/BVH_model.h>
+#include <fcl/math/bv/AABB.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+namespace meshcontact {
+
+namespace {
+
+// Float bounds that contain the double value: round toward -inf for a lower
+// bound, toward +inf for an upper one.
+float floatBelow(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+float floatAbove(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
+bool overlaps(const BvhNode& n, const float lo[3], const float hi[3]) {
+  return !(n.lo[0] > hi[0] || n.hi[0] < lo[0] || n.lo[1] > hi[1] || n.hi[1] < lo[1] || n.lo[2] > hi[2] ||
+           n.hi[2] < lo[2]);
+}
+
+// Position bits with -0 folded onto +0, so that equal coordinates compare equal.
+std::array<std::uint64_t, 3> positionBits(const double* p) {
+  std::array<std::uint64_t, 3> bits;
+  for (int k = 0; k < 3; ++k) {
+    const double x = p[k] + 0.0;  // -0 + 0 == +0
+    std::memcpy(&bits[k], &x, sizeof x);
+  }
+  return bits;
+}
+
+}  // namespace
+
+bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a;
+  const Vec3 ac = c - a;
+  const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
+  const double twice_area = ab.cross(ac).norm();
+  // !(>) so that NaN counts as degenerate.
+  return !(twice_area > 1e-12 * longest2);
+}
+
+TriangleMesh::TriangleMesh(TriangleMesh&& other) noexcept { *this = std::move(other); }
+
+TriangleMesh& TriangleMesh::operator=(TriangleMesh&& other) noexcept {
+  if (this == &other) return *this;
+  // A moved std::vector keeps its buffer, so pointers into owned arrays stay valid.
+  vertices_ = other.vertices_;
+  indices_ = other.indices_;
+  vertex_count_ = other.vertex_count_;
+  triangle_count_ = other.triangle_count_;
+  degenerate_count_ = other.degenerate_count_;
+  has_duplicate_vertices_ = other.has_duplicate_vertices_;
+  built_ = other.built_;
+  bvh_depth_ = other.bvh_depth_;
+  owned_vertices_ = std::move(other.owned_vertices_);
+  owned_indices_ = std::move(other.owned_indices_);
+  nodes_ = std::move(other.nodes_);
+  other.reset();
+  return *this;
+}
+
+TriangleMesh::~TriangleMesh() = default;
+
+void TriangleMesh::reset() {
+  vertices_ = nullptr;
+  indices_ = nullptr;
+  vertex_count_ = triangle_count_ = degenerate_count_ = 0;
+  has_duplicate_vertices_ = false;
+  built_ = false;
+  bvh_depth_ = 0;
+  owned_vertices_.clear();
+  owned_indices_.clear();
+  nodes_.clear();
+}
+
+std::size_t TriangleMesh::memoryBytes() const {
+  return nodes_.capacity() * sizeof(BvhNode) + owned_vertices_.capacity() * sizeof(double) +
+         owned_indices_.capacity() * sizeof(std::uint32_t);
+}
+
+Status TriangleMesh::build(const MeshView& view, Storage storage) {
+  reset();
+  if (view.vertex_count == 0 || view.vertices == nullptr)
+    return {ErrorCode::kEmptyMesh, "mesh has no vertices"};
+  if (view.triangle_count == 0 || view.indices == nullptr)
+    return {ErrorCode::kEmptyMesh, "mesh has no triangles"};
+  constexpr std::size_t kMax = static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max());
+  if (view.vertex_count > kMax || view.triangle_count > kMax)
+    return {ErrorCode::kTooLarge, "mesh has " + std::to_string(view.vertex_count) + " vertices and " +
+                                      std::to_string(view.triangle_count) +
+                                      " triangles; at most 2^31-1 of each are supported"};
+  for (std::size_t i = 0; i < view.vertex_count; ++i) {
+    const double* p = view.vertices + 3 * i;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return {ErrorCode::kNonFiniteVertex, "vertex " + std::to_string(i) + " has a non-finite coordinate (" +
+                                               std::to_string(p[0]) + ", " + std::to_string(p[1]) + ", " +
+                                               std::to_string(p[2]) + ")"};
+  }
+  for (std::size_t t = 0; t < view.triangle_count; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = view.indices[3 * t + k];
+      if (v >= view.vertex_count)
+        return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " corner " + std::to_string(k) +
+                                                 " references vertex " + std::to_string(v) + " but the mesh has " +
+                                                 std::to_string(view.vertex_count) + " vertices"};
+    }
+  }
+
+  if (storage == Storage::kCopy) {
+    owned_vertices_.assign(view.vertices, view.vertices + 3 * view.vertex_count);
+    owned_indices_.assign(view.indices, view.indices + 3 * view.triangle_count);
+    vertices_ = owned_vertices_.data();
+    indices_ = owned_indices_.data();
+  } else {
+    vertices_ = view.vertices;
+    indices_ = view.indices;
+  }
+  vertex_count_ = view.vertex_count;
+  triangle_count_ = view.triangle_count;
+
+  // Usable triangles, and the vertices they reference.
+  std::vector<std::uint32_t> usable;
+  usable.reserve(triangle_count_);
+  std::vector<bool> referenced(vertex_count_, false);
+  for (std::uint32_t t = 0; t < triangle_count_; ++t) {
+    const std::uint32_t* tri = triangle(t);
+    if (isDegenerateTriangle(vertex(tri[0]), vertex(tri[1]), vertex(tri[2]))) {
+      ++degenerate_count_;
+      continue;
+    }
+    usable.push_back(t);
+    for (int k = 0; k < 3; ++k) referenced[tri[k]] = true;
+  }
+
+  // Duplicated vertices: two referenced indices with bitwise-equal positions.
+  {
+    std::vector<std::array<std::uint64_t, 3>> keys;
+    for (std::size_t i = 0; i < vertex_count_; ++i)
+      if (referenced[i]) keys.push_back(positionBits(vertices_ + 3 * i));
+    std::sort(keys.begin(), keys.end());
+    has_duplicate_vertices_ = std::adjacent_find(keys.begin(), keys.end()) != keys.end();
+  }
+
+  if (!usable.empty()) {
+    // FCL builds the hierarchy (DESIGN §4); we keep a flat float copy of it
+    // and drop FCL's model: half the memory, and a layout made for our walk.
+    std::vector<fcl::Vector3d> points(vertex_count_);
+    for (std::size_t i = 0; i < vertex_count_; ++i) points[i] = vertex(static_cast<std::uint32_t>(i));
+    std::vector<fcl::Triangle> tris;
+    tris.reserve(usable.size());
+    for (std::uint32_t t : usable) {
+      const std::uint32_t* tri = triangle(t);
+      tris.emplace_back(tri[0], tri[1], tri[2]);
+    }
+    fcl::BVHModel<fcl::AABBd> model;
+    model.beginModel(static_cast<int>(tris.size()), static_cast<int>(points.size()));
+    model.addSubModel(points, tris);
+    model.endModel();
+
+    const int count = model.getNumBVs();
+    nodes_.resize(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) {
+      const fcl::BVNode<fcl::AABBd>& src = model.getBV(i);
+      BvhNode& dst = nodes_[static_cast<std::size_t>(i)];
+      for (int k = 0; k < 3; ++k) {
+        dst.lo[k] = floatBelow(src.bv.min_[k]);
+        dst.hi[k] = floatAbove(src.bv.max_[k]);
+      }
+      if (src.isLeaf()) {
+        dst.first_child = -1;
+        dst.triangle = usable[static_cast<std::size_t>(src.primitiveId())];
+      } else {
+        dst.first_child = src.leftChild();
+        dst.triangle = 0;
+        if (src.rightChild() != src.leftChild() + 1) {
+          // FCL allocates siblings in pairs; our walk relies on it.
+          reset();
+          return {ErrorCode::kTooLarge, "unexpected FCL BVH layout: children of node " + std::to_string(i) +
+                                            " are not adjacent"};
+        }
+      }
+    }
+    // Depth, for the traversal stack's size.
+    std::vector<std::pair<std::int32_t, int>> stack{{0, 1}};
+    while (!stack.empty()) {
+      const auto [n, d] = stack.back();
+      stack.pop_back();
+      bvh_depth_ = std::max(bvh_depth_, d);
+      const BvhNode& node = nodes_[static_cast<std::size_t>(n)];
+      if (node.first_child >= 0) {
+        stack.push_back({node.first_child, d + 1});
+        stack.push_back({node.first_child + 1, d + 1});
+      }
+    }
+  }
+  built_ = true;
+  return Status::ok();
+}
+
+void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
+                            std::vector<std::int32_t>& stack) const {
+  if (nodes_.empty()) return;
+  const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
+  const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
+  const BvhNode* nodes = nodes_.data();
+  if (!overlaps(nodes[0], qlo, qhi)) return;
+  // A depth-first walk keeps at most one pending sibling per level.
+  if (stack.capacity() < static_cast<std::size_t>(bvh_depth_) + 1) stack.reserve(bvh_depth_ + 1);
+  stack.clear();
+  std::int32_t current = 0;
+  for (;;) {
+    const BvhNode& node = nodes[current];
+    if (node.first_child < 0) {
+      out.push_back(node.triangle);
+    } else {
+      const std::int32_t left = node.first_child;
+      const bool hit_left = overlaps(nodes[left], qlo, qhi);
+      const bool hit_right = overlaps(nodes[left + 1], qlo, qhi);
+      if (hit_left) {
+        if (hit_right) stack.push_back(left + 1);
+        current = left;
+        continue;
+      }
+      if (hit_right) {
+        current = left + 1;
+        continue;
+      }
+    }
+    if (stack.empty()) break;
+    current = stack.back();
+    stack.pop_back();
+  }
+}
+
+}  // namespace meshcontact

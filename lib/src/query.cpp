@@ -1,0 +1,203 @@
+// The midphase stage (gatherCandidates) and the sphere narrowphase.
+#include "meshcontact/query.h"
+
+#include "meshcontact/triangle.h"
+#include "scratch.h"
+#include "validate.h"
+#include "voided_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace meshcontact {
+
+QueryScratch::QueryScratch() : impl_(std::make_unique<Impl>()) {}
+QueryScratch::~QueryScratch() = default;
+QueryScratch::QueryScratch(QueryScratch&&) noexcept = default;
+QueryScratch& QueryScratch::operator=(QueryScratch&&) noexcept = default;
+
+KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode requested) {
+  if (requested != KeyMode::kAuto) return requested;
+  if (count == 1 && instances[0].mesh && !instances[0].mesh->hasDuplicateVertices()) return KeyMode::kVertexIndex;
+  return KeyMode::kVertexPosition;
+}
+
+namespace {
+
+detail::PositionKey positionKey(const Vec3& p) {
+  detail::PositionKey key;
+  for (int k = 0; k < 3; ++k) {
+    const double x = p[k] + 0.0;  // fold -0 onto +0
+    std::memcpy(&key.bits[k], &x, sizeof x);
+  }
+  return key;
+}
+
+}  // namespace
+
+Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                        KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
+  out.clear();
+  if (!lo.allFinite() || !hi.allFinite() || (lo.array() > hi.array()).any())
+    return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
+                                          " is not finite or has lo > hi"};
+  for (std::size_t m = 0; m < count; ++m) {
+    if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt())
+      return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
+    Status s = detail::checkPose(instances[m].pose, ("mesh instance " + std::to_string(m)).c_str());
+    if (!s) return s;
+  }
+  const KeyMode mode = resolveKeyMode(instances, count, key_mode);
+  QueryScratch::Impl& sc = scratch.impl();
+  const Vec3 centre = 0.5 * (lo + hi);
+  const Vec3 half = 0.5 * (hi - lo);
+
+  bool first_position = true;
+  for (std::size_t m = 0; m < count; ++m) {
+    const TriangleMesh& mesh = *instances[m].mesh;
+    const Pose& pose = instances[m].pose;
+    const bool identity = pose.isIdentity();
+    // The query box in the mesh frame: the bounds of the rotated box.
+    Vec3 local_lo = lo, local_hi = hi;
+    if (!identity) {
+      const Vec3 c = pose.applyInverse(centre);
+      const Vec3 h = pose.rotation.transpose().cwiseAbs() * half;
+      local_lo = c - h;
+      local_hi = c + h;
+    }
+    sc.hits.clear();
+    mesh.queryBox(local_lo, local_hi, sc.hits, sc.stack);
+    if (sc.hits.empty()) continue;
+    if (mode == KeyMode::kVertexPosition && first_position) {
+      // Upper bound on distinct positions of this query: 3 per triangle of
+      // this instance; the map grows if later instances add more.
+      sc.positions.reset(3 * sc.hits.size());
+      first_position = false;
+    }
+    const std::size_t base = out.size();
+    out.resize(base + sc.hits.size());
+    for (std::size_t h = 0; h < sc.hits.size(); ++h) {
+      CandidateTriangle& c = out[base + h];
+      const std::uint32_t t = sc.hits[h];
+      const std::uint32_t* tri = mesh.triangle(t);
+      c.mesh = static_cast<std::uint32_t>(m);
+      c.triangle = t;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 v = mesh.vertex(tri[k]);
+        c.vertices[k] = identity ? v : pose.apply(v);
+        if (mode == KeyMode::kVertexPosition) {
+          const auto next = static_cast<std::uint32_t>(sc.positions.size());
+          c.keys[k] = sc.positions.insert(positionKey(c.vertices[k]), next);
+        } else {
+          c.keys[k] = (static_cast<std::uint64_t>(m) << 32) | tri[k];
+        }
+      }
+    }
+  }
+  return Status::ok();
+}
+
+namespace {
+
+Status checkSphere(const Sphere& sphere) {
+  if (!sphere.center.allFinite())
+    return {ErrorCode::kInvalidShape, "sphere centre is not finite: " + detail::describe(sphere.center)};
+  if (!std::isfinite(sphere.radius) || sphere.radius < 0.0)
+    return {ErrorCode::kInvalidShape, "sphere radius must be finite and >= 0, got " + std::to_string(sphere.radius)};
+  return Status::ok();
+}
+
+// Sphere vs one triangle (reference §4a): one-sided, closest point + feature,
+// distance test against the inflated radius.
+struct SphereNarrowphase {
+  Vec3 center;
+  double radius;
+  double inflated;  // radius + contact distance
+
+  detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
+    const Vec3& a = t.vertices[0];
+    const Vec3& b = t.vertices[1];
+    const Vec3& c = t.vertices[2];
+    const Vec3 ab = b - a, ac = c - a;
+    Vec3 n = ab.cross(ac);
+    const double twice_area = n.norm();
+    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
+    if (!(twice_area > 1e-12 * longest2)) {
+      p.distance = (center - a).norm();
+      return detail::PatchOutcome::kDegenerate;
+    }
+    n /= twice_area;
+    const double height = n.dot(center - a);
+    if (height < 0.0) {  // centre behind the plane
+      p.distance = -height;
+      return detail::PatchOutcome::kBackFacing;
+    }
+    if (height > inflated) {  // the plane is already too far (fig. 1)
+      p.distance = height;
+      return detail::PatchOutcome::kBeyondContactDistance;
+    }
+    const ClosestPoint cp = closestPointOnTriangle(center, a, b, c);
+    p.feature = cp.feature;
+    double distance;
+    if (cp.feature.type == FeatureType::kFace) {
+      distance = height;  // exact for the face region, and never NaN
+      p.normal = n;
+    } else {
+      const Vec3 d = center - cp.point;
+      distance = d.norm();
+      // §4b: if the centre is on the feature, fall back to the face normal.
+      // "On" is relative to the scene's scale, not an absolute epsilon.
+      const double tiny = 1e-12 * std::max(radius, std::sqrt(longest2));
+      p.normal = distance > tiny ? Vec3(d / distance) : n;
+    }
+    p.distance = distance;
+    if (distance > inflated) return detail::PatchOutcome::kBeyondContactDistance;
+    p.count = 1;
+    p.points[0] = center - radius * p.normal;
+    p.depths[0] = radius - distance;
+    return detail::PatchOutcome::kContact;
+  }
+};
+
+}  // namespace
+
+Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
+                               const QuerySettings& settings, QueryScratch& scratch,
+                               std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkSphere(sphere);
+  if (!s) return s;
+  s = detail::checkContactDistance(settings.contact_distance);
+  if (!s) return s;
+  const SphereNarrowphase narrowphase{sphere.center, sphere.radius, sphere.radius + settings.contact_distance};
+  detail::generateContacts(candidates, count, narrowphase, settings, scratch.impl().filter, contacts);
+  return Status::ok();
+}
+
+Status collideSphere(const MeshInstance* instances, std::size_t count, const Sphere& sphere,
+                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkSphere(sphere);
+  if (!s) return s;
+  s = detail::checkContactDistance(settings.contact_distance);
+  if (!s) return s;
+  const double reach = sphere.radius + settings.contact_distance;
+  const Vec3 extent = Vec3::Constant(reach);
+  QueryScratch::Impl& sc = scratch.impl();
+  s = gatherCandidates(instances, count, sphere.center - extent, sphere.center + extent, settings.key_mode, scratch,
+                       sc.candidates);
+  if (!s) return s;
+  return collideSphereCandidates(sphere, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+}
+
+Status collideSphere(const TriangleMesh& mesh, const Sphere& sphere, const QuerySettings& settings,
+                     QueryScratch& scratch, std::vector<Contact>& contacts) {
+  const MeshInstance instance{&mesh, Pose::identity()};
+  return collideSphere(&instance, 1, sphere, settings, scratch, contacts);
+}
+
+}  // namespace meshcontact

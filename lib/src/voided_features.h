@@ -1,0 +1,177 @@
+#pragma once
+// The voided-features filter of reference §5, independent of the shape.
+//
+// A per-triangle narrowphase turns each candidate into a Patch (one normal,
+// 1..4 points) tagged with the triangle feature it lies on. Then:
+//   - face patches are kept as they come and void their triangle;
+//   - edge and vertex patches are delayed, sorted by distance (ties broken by
+//     mesh and triangle index, so the result does not depend on the
+//     midphase's order), and processed in one pass: a patch whose edge or
+//     vertex is voided is dropped, and every processed triangle is voided
+//     whether or not it produced a contact (§5a, §5b).
+// "Voiding a triangle" adds its three vertex keys and three edge keys to V;
+// an edge is voided iff some triangle in V contains it, a vertex iff some
+// triangle in V contains it (§4b, §4c).
+
+#include "meshcontact/contact.h"
+#include "meshcontact/query.h"
+#include "stamped_set.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+namespace meshcontact::detail {
+
+/// What a per-triangle narrowphase reports for one candidate.
+struct Patch {
+  Feature feature;
+  double distance = 0.0;  // shape-to-triangle distance: the delayed sort key
+  Vec3 normal = Vec3::UnitZ();
+  int count = 0;
+  Vec3 points[4];
+  double depths[4] = {0, 0, 0, 0};
+};
+
+enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
+
+class VoidedSet {
+ public:
+  void reset(std::size_t triangles) {
+    vertices_.reset(3 * triangles);
+    edges_.reset(3 * triangles);
+  }
+  void voidTriangle(const std::uint64_t k[3]) {
+    for (int i = 0; i < 3; ++i) {
+      vertices_.insert(k[i], Empty{});
+      edges_.insert(edgeKey(k[i], k[(i + 1) % 3]), Empty{});
+    }
+  }
+  bool isVoided(Feature f, const std::uint64_t k[3]) const {
+    if (f.type == FeatureType::kEdge) return edges_.contains(edgeKey(k[f.index], k[(f.index + 1) % 3]));
+    if (f.type == FeatureType::kVertex) return vertices_.contains(k[f.index]);
+    return false;
+  }
+
+ private:
+  static EdgeKey edgeKey(std::uint64_t a, std::uint64_t b) { return a < b ? EdgeKey{a, b} : EdgeKey{b, a}; }
+  StampedMap<std::uint64_t, Empty, U64Hash> vertices_;
+  StampedMap<EdgeKey, Empty, EdgeHash> edges_;
+};
+
+struct SortItem {
+  double distance;
+  std::uint32_t mesh;
+  std::uint32_t triangle;
+  std::uint32_t patch;  // index in the patch buffer
+
+  // Distance first (§5a); then an order that depends only on the triangle's
+  // identity, never on where the midphase put it.
+  bool operator<(const SortItem& o) const {
+    if (distance != o.distance) return distance < o.distance;
+    if (mesh != o.mesh) return mesh < o.mesh;
+    if (triangle != o.triangle) return triangle < o.triangle;
+    return patch < o.patch;
+  }
+};
+
+/// Scratch of the filter; lives in QueryScratch::Impl.
+struct FilterScratch {
+  std::vector<Patch> patches;
+  std::vector<std::uint32_t> patch_candidate;  // candidate index of each patch
+  std::vector<SortItem> delayed;
+  std::vector<SortItem> accepted;
+  VoidedSet voided;
+};
+
+inline Verdict contactVerdict(Feature f) {
+  switch (f.type) {
+    case FeatureType::kFace: return Verdict::kFaceContact;
+    case FeatureType::kEdge: return Verdict::kEdgeContact;
+    case FeatureType::kVertex: return Verdict::kVertexContact;
+  }
+  return Verdict::kFaceContact;
+}
+
+inline Verdict outcomeVerdict(PatchOutcome o) {
+  switch (o) {
+    case PatchOutcome::kBackFacing: return Verdict::kBackFacing;
+    case PatchOutcome::kBeyondContactDistance: return Verdict::kBeyondContactDistance;
+    case PatchOutcome::kDegenerate: return Verdict::kDegenerate;
+    case PatchOutcome::kContact: break;
+  }
+  return Verdict::kDegenerate;
+}
+
+/// Runs `narrowphase(const CandidateTriangle&, Patch&) -> PatchOutcome` on
+/// every candidate, filters, and writes the kept contacts sorted by
+/// (mesh, triangle).
+template <class Narrowphase>
+void generateContacts(const CandidateTriangle* candidates, std::size_t count, Narrowphase&& narrowphase,
+                      const QuerySettings& settings, FilterScratch& s, std::vector<Contact>& contacts) {
+  const bool filter = settings.filter == FilterMode::kVoidedFeatures;
+  std::vector<TraceEntry>* trace = settings.trace;
+  if (trace) trace->clear();
+  contacts.clear();
+  s.patches.resize(count);
+  s.patch_candidate.resize(count);
+  s.delayed.clear();
+  s.accepted.clear();
+  s.voided.reset(count);
+
+  // Pass 1: face contacts on the fly (§4a); edges and vertices delayed.
+  std::uint32_t used = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const CandidateTriangle& c = candidates[i];
+    Patch& p = s.patches[used];
+    const PatchOutcome outcome = narrowphase(c, p);
+    if (outcome != PatchOutcome::kContact) {
+      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, outcomeVerdict(outcome)});
+      continue;
+    }
+    s.patch_candidate[used] = static_cast<std::uint32_t>(i);
+    const SortItem item{p.distance, c.mesh, c.triangle, used};
+    ++used;
+    if (p.feature.type == FeatureType::kFace || !filter) {
+      s.accepted.push_back(item);
+      if (filter) s.voided.voidTriangle(c.keys);
+      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, contactVerdict(p.feature)});
+    } else {
+      s.delayed.push_back(item);
+    }
+  }
+
+  // Pass 2: delayed contacts in distance order, voiding unconditionally (§5).
+  std::sort(s.delayed.begin(), s.delayed.end());
+  for (const SortItem& item : s.delayed) {
+    const Patch& p = s.patches[item.patch];
+    const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
+    const bool voided = s.voided.isVoided(p.feature, c.keys);
+    if (!voided) s.accepted.push_back(item);
+    s.voided.voidTriangle(c.keys);
+    if (trace)
+      trace->push_back({c.mesh, c.triangle, p.feature, p.distance, voided ? Verdict::kVoided : contactVerdict(p.feature)});
+  }
+
+  // Output in an order that only depends on the triangles' identities.
+  std::sort(s.accepted.begin(), s.accepted.end(), [](const SortItem& a, const SortItem& b) {
+    if (a.mesh != b.mesh) return a.mesh < b.mesh;
+    if (a.triangle != b.triangle) return a.triangle < b.triangle;
+    return a.distance < b.distance;
+  });
+  for (const SortItem& item : s.accepted) {
+    const Patch& p = s.patches[item.patch];
+    for (int k = 0; k < p.count; ++k) {
+      Contact contact;
+      contact.point = p.points[k];
+      contact.normal = p.normal;
+      contact.depth = p.depths[k];
+      contact.mesh = item.mesh;
+      contact.triangle = item.triangle;
+      contact.feature = p.feature;
+      contacts.push_back(contact);
+    }
+  }
+}
+
+}  // namespace meshcontact::detail

@@ -1,0 +1,61 @@
+#pragma once
+// Helpers shared by the test files.
+#include <meshcontact/meshcontact.h>
+#include <meshcontact_scenes/scenes.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace meshcontact::testing {
+
+inline std::string str(const Vec3& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "Vec3(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return s.str();
+}
+
+/// Builds a mesh or fails the test with the build's message.
+inline TriangleMesh buildMesh(const scenes::SceneMesh& m) {
+  TriangleMesh mesh;
+  const Status s = mesh.build(m.view());
+  EXPECT_TRUE(s.isOk()) << s.message();
+  return mesh;
+}
+
+/// Contacts compared by geometry only (not by mesh / triangle index), in a
+/// canonical order: used to compare a welded mesh with its pieces.
+struct Geometric {
+  Vec3 point, normal;
+  double depth;
+  FeatureType type;
+};
+inline std::vector<Geometric> geometric(const std::vector<Contact>& contacts) {
+  std::vector<Geometric> g;
+  for (const Contact& c : contacts) g.push_back({c.point, c.normal, c.depth, c.feature.type});
+  std::sort(g.begin(), g.end(), [](const Geometric& a, const Geometric& b) {
+    for (int k = 0; k < 3; ++k)
+      if (a.point[k] != b.point[k]) return a.point[k] < b.point[k];
+    for (int k = 0; k < 3; ++k)
+      if (a.normal[k] != b.normal[k]) return a.normal[k] < b.normal[k];
+    return a.depth < b.depth;
+  });
+  return g;
+}
+
+inline void expectSameGeometry(const std::vector<Contact>& a, const std::vector<Contact>& b, double tol = 1e-12) {
+  const auto ga = geometric(a), gb = geometric(b);
+  ASSERT_EQ(ga.size(), gb.size());
+  for (std::size_t i = 0; i < ga.size(); ++i) {
+    EXPECT_LE((ga[i].point - gb[i].point).norm(), tol) << str(ga[i].point) << " vs " << str(gb[i].point);
+    EXPECT_LE((ga[i].normal - gb[i].normal).norm(), tol) << str(ga[i].normal) << " vs " << str(gb[i].normal);
+    EXPECT_NEAR(ga[i].depth, gb[i].depth, tol);
+    EXPECT_EQ(ga[i].type, gb[i].type);
+  }
+}
+
+}  // namespace meshcontact::testing
