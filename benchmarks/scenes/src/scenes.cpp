@@ -54,6 +54,7 @@ Mat3 Rng::rotation() {
 
 void addGridPatch(SceneMesh& mesh, const Vec3& origin, const Vec3& u, const Vec3& v, int nu, int nv, Rng& rng,
                   double jitter) {
+  jitter = std::clamp(jitter, 0.0, 0.2499);  // see the header: no folded triangles
   const auto base = static_cast<std::uint32_t>(mesh.vertexCount());
   for (int j = 0; j <= nv; ++j) {
     for (int i = 0; i <= nu; ++i) {
@@ -125,6 +126,17 @@ SceneMesh flatFloor(int nx, int ny, double cell, std::uint64_t seed, double jitt
   return mesh;
 }
 
+SceneMesh sineTerrain(int nx, int ny, double cell, double amplitude, double wavelength, std::uint64_t seed,
+                      double jitter) {
+  SceneMesh mesh = flatFloor(nx, ny, cell, seed, jitter);
+  const double k = 2.0 * M_PI / wavelength;
+  for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
+    double* p = &mesh.vertices[3 * i];
+    p[2] = amplitude * std::sin(k * p[0]) * std::sin(k * p[1]);
+  }
+  return mesh;
+}
+
 std::vector<SceneMesh> tiledFloor(int tiles_x, int tiles_y, int cells_per_tile, double cell, std::uint64_t seed,
                                   double jitter) {
   // Cut the welded floor into tiles: each tile copies the vertices it uses,
@@ -159,9 +171,9 @@ SceneMesh step(double half_extent, double height, double cell, std::uint64_t see
   const int nx = cellsFor(half_extent, cell), ny = cellsFor(w, cell), nz = cellsFor(height, cell);
   // Upper floor, wall (front face +x), lower floor.
   addGridPatch(mesh, Vec3(-half_extent, -half_extent, height), Vec3(half_extent, 0, 0), Vec3(0, w, 0), nx, ny, rng,
-               0.25);
-  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(0, w, 0), Vec3(0, 0, height), ny, nz, rng, 0.25);
-  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(half_extent, 0, 0), Vec3(0, w, 0), nx, ny, rng, 0.25);
+               0.2);
+  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(0, w, 0), Vec3(0, 0, height), ny, nz, rng, 0.2);
+  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(half_extent, 0, 0), Vec3(0, w, 0), nx, ny, rng, 0.2);
   return weld(mesh);
 }
 
@@ -174,8 +186,8 @@ SceneMesh twoSlopes(double half_extent, double slope_deg, double cell, std::uint
   const double w = 2 * half_extent;
   const int nx = cellsFor(half_extent, cell), ny = cellsFor(w, cell);
   addGridPatch(mesh, Vec3(-half_extent, -half_extent, rise), Vec3(half_extent, 0, -rise), Vec3(0, w, 0), nx, ny, rng,
-               0.25);
-  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(half_extent, 0, rise), Vec3(0, w, 0), nx, ny, rng, 0.25);
+               0.2);
+  addGridPatch(mesh, Vec3(0, -half_extent, 0), Vec3(half_extent, 0, rise), Vec3(0, w, 0), nx, ny, rng, 0.2);
   return weld(mesh);
 }
 }  // namespace

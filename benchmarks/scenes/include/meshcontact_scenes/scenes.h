@@ -44,9 +44,11 @@ class Rng {
 
 /// A planar patch: origin + s * u + t * v for s, t in [0, 1], split in
 /// nu x nv cells, each cut along a random diagonal. Interior vertices are
-/// moved in the plane by up to `jitter` of a cell (boundary vertices stay put,
-/// so neighbouring patches meet at bitwise-equal positions). The front face
-/// is along u x v.
+/// moved in the plane by up to `jitter` of a cell along each direction
+/// (boundary vertices stay put, so neighbouring patches meet at bitwise-equal
+/// positions). jitter < 0.25 keeps every triangle unfolded (two vertices of a
+/// cell cannot cross the diagonal between them); larger values are rejected.
+/// The front face is along u x v.
 void addGridPatch(SceneMesh& mesh, const Vec3& origin, const Vec3& u, const Vec3& v, int nu, int nv, Rng& rng,
                   double jitter);
 
@@ -56,12 +58,19 @@ SceneMesh weld(const SceneMesh& mesh);
 SceneMesh unweld(const SceneMesh& mesh);
 
 /// Flat floor z = 0 over [0, nx*cell] x [0, ny*cell], random diagonals, in-plane jitter.
-SceneMesh flatFloor(int nx, int ny, double cell, std::uint64_t seed, double jitter = 0.25);
+SceneMesh flatFloor(int nx, int ny, double cell, std::uint64_t seed, double jitter = 0.2);
+
+/// A bumpy terrain over the same grid as flatFloor: z = amplitude *
+/// sin(2 pi x / wavelength) * sin(2 pi y / wavelength) at every vertex (after
+/// the in-plane jitter). Welded; no two triangles are coplanar in general, so
+/// it exercises edge and vertex contacts as well as faces.
+SceneMesh sineTerrain(int nx, int ny, double cell, double amplitude, double wavelength, std::uint64_t seed,
+                      double jitter = 0.25);
 
 /// The same floor as separate tile meshes of `cells_per_tile`^2 cells each;
 /// neighbouring tiles duplicate their shared vertices (bitwise equal).
 std::vector<SceneMesh> tiledFloor(int tiles_x, int tiles_y, int cells_per_tile, double cell, std::uint64_t seed,
-                                  double jitter = 0.25);
+                                  double jitter = 0.2);
 
 /// A step (cliff): floor z = height for x < 0, a wall facing +x at x = 0, floor
 /// z = 0 for x > 0; each part `half_extent` wide in x and 2*half_extent in y.

@@ -1,0 +1,167 @@
+// Bad input gets a clear error and nothing else: no crash, no NaN contact,
+// no partially filled output.
+#include "test_support.h"
+
+#include <cmath>
+#include <limits>
+
+namespace meshcontact {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+const std::vector<double> kVertices = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+const std::vector<std::uint32_t> kIndices = {0, 1, 2};
+
+void expectError(const Status& s, ErrorCode code, const std::string& fragment) {
+  EXPECT_FALSE(s.isOk());
+  EXPECT_EQ(s.code(), code) << toString(s.code()) << ": " << s.message();
+  EXPECT_NE(s.message().find(fragment), std::string::npos) << "message: " << s.message();
+}
+
+TEST(MeshBuild, EmptyMeshIsAnError) {
+  TriangleMesh mesh;
+  expectError(mesh.build(std::vector<double>{}, kIndices), ErrorCode::kEmptyMesh, "no vertices");
+  expectError(mesh.build(kVertices, std::vector<std::uint32_t>{}), ErrorCode::kEmptyMesh, "no triangles");
+  EXPECT_FALSE(mesh.isBuilt());
+}
+
+TEST(MeshBuild, OutOfRangeIndexNamesTriangleCornerAndIndex) {
+  TriangleMesh mesh;
+  const std::vector<std::uint32_t> indices = {0, 1, 2, 2, 1, 3};
+  expectError(mesh.build(kVertices, indices), ErrorCode::kIndexOutOfRange, "triangle 1 corner 2 references vertex 3");
+  EXPECT_FALSE(mesh.isBuilt());
+}
+
+TEST(MeshBuild, NonFiniteVertexIsNamed) {
+  for (double bad : {kNaN, kInf, -kInf}) {
+    std::vector<double> vertices = kVertices;
+    vertices[4] = bad;  // vertex 1, y
+    TriangleMesh mesh;
+    expectError(mesh.build(vertices, kIndices), ErrorCode::kNonFiniteVertex, "vertex 1");
+    EXPECT_FALSE(mesh.isBuilt());
+  }
+}
+
+TEST(MeshBuild, FailedRebuildLeavesTheMeshEmpty) {
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());
+  const std::vector<std::uint32_t> bad = {0, 1, 7};
+  EXPECT_FALSE(mesh.build(kVertices, bad).isOk());
+  EXPECT_FALSE(mesh.isBuilt());
+  QueryScratch scratch;
+  std::vector<Contact> contacts(3);
+  expectError(collideSphere(mesh, {Vec3(0.2, 0.2, 0.1), 0.2}, {}, scratch, contacts), ErrorCode::kMeshNotBuilt,
+              "not built");
+  EXPECT_TRUE(contacts.empty());
+}
+
+TEST(MeshBuild, DegenerateTrianglesAreCountedAndNeverProduceContacts) {
+  // Triangle 0 is fine; 1 is a point (all corners equal); 2 is collinear;
+  // 3 is a sliver far below the 1e-12 relative-area threshold.
+  const std::vector<double> vertices = {0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0, 0.5, 1e-14, 0};
+  const std::vector<std::uint32_t> indices = {0, 1, 2, 1, 1, 1, 0, 1, 3, 0, 3, 4};
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(vertices, indices).isOk());
+  EXPECT_EQ(mesh.degenerateTriangleCount(), 3u);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  std::vector<TraceEntry> trace;
+  QuerySettings settings;
+  settings.trace = &trace;
+  settings.filter = FilterMode::kNone;  // nothing hides a degenerate contact
+  // A sphere that touches all four triangles.
+  ASSERT_TRUE(collideSphere(mesh, {Vec3(0.9, 0.05, 0.05), 0.3}, settings, scratch, contacts).isOk());
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].triangle, 0u);
+  EXPECT_TRUE(contacts[0].normal.allFinite());
+  // Degenerate triangles are left out of the BVH: the midphase never returns them.
+  ASSERT_EQ(trace.size(), 1u);
+  EXPECT_EQ(trace[0].triangle, 0u);
+}
+
+TEST(MeshBuild, OnlyDegenerateTrianglesGiveAValidMeshWithNoContacts) {
+  const std::vector<double> vertices = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+  const std::vector<std::uint32_t> indices = {0, 1, 2};
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(vertices, indices).isOk());
+  EXPECT_EQ(mesh.degenerateTriangleCount(), 1u);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  ASSERT_TRUE(collideSphere(mesh, {Vec3(1, 0, 0), 1.0}, {}, scratch, contacts).isOk());
+  EXPECT_TRUE(contacts.empty());
+}
+
+class SphereQueryErrors : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk()); }
+  Status query(const Sphere& sphere, const QuerySettings& settings = {}) {
+    contacts.assign(2, Contact{});  // must come back empty
+    const Status s = collideSphere(mesh, sphere, settings, scratch, contacts);
+    EXPECT_TRUE(contacts.empty());
+    return s;
+  }
+  TriangleMesh mesh;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+};
+
+TEST_F(SphereQueryErrors, NonFiniteCentre) {
+  expectError(query({Vec3(kNaN, 0, 0), 0.5}), ErrorCode::kInvalidShape, "centre");
+  expectError(query({Vec3(0, kInf, 0), 0.5}), ErrorCode::kInvalidShape, "centre");
+}
+
+TEST_F(SphereQueryErrors, NegativeOrNonFiniteRadius) {
+  expectError(query({Vec3(0.2, 0.2, 0.1), -0.1}), ErrorCode::kInvalidShape, "radius");
+  expectError(query({Vec3(0.2, 0.2, 0.1), kNaN}), ErrorCode::kInvalidShape, "radius");
+  expectError(query({Vec3(0.2, 0.2, 0.1), kInf}), ErrorCode::kInvalidShape, "radius");
+}
+
+TEST_F(SphereQueryErrors, ZeroRadiusIsAPointQuery) {
+  QuerySettings settings;
+  settings.contact_distance = 0.2;
+  ASSERT_TRUE(collideSphere(mesh, {Vec3(0.2, 0.2, 0.1), 0.0}, settings, scratch, contacts).isOk());
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_NEAR(contacts[0].depth, -0.1, 1e-15);
+}
+
+TEST_F(SphereQueryErrors, NegativeOrNonFiniteContactDistance) {
+  for (double bad : {-1e-9, kNaN, kInf}) {
+    QuerySettings settings;
+    settings.contact_distance = bad;
+    expectError(query({Vec3(0.2, 0.2, 0.1), 0.5}, settings), ErrorCode::kInvalidSettings, "contact_distance");
+  }
+}
+
+TEST_F(SphereQueryErrors, BadMeshInstancePoses) {
+  const Sphere sphere{Vec3(0.2, 0.2, 0.1), 0.5};
+  MeshInstance instance{&mesh, Pose::identity()};
+  instance.pose.translation.x() = kNaN;
+  expectError(collideSphere(&instance, 1, sphere, {}, scratch, contacts), ErrorCode::kInvalidPose, "non-finite");
+  instance.pose = Pose::identity();
+  instance.pose.rotation(0, 0) = 1.1;  // not orthonormal
+  expectError(collideSphere(&instance, 1, sphere, {}, scratch, contacts), ErrorCode::kInvalidPose, "orthonormal");
+  instance.pose = Pose::identity();
+  instance.pose.rotation(2, 2) = -1.0;  // a reflection
+  expectError(collideSphere(&instance, 1, sphere, {}, scratch, contacts), ErrorCode::kInvalidPose, "orthonormal");
+  instance.mesh = nullptr;
+  expectError(collideSphere(&instance, 1, sphere, {}, scratch, contacts), ErrorCode::kMeshNotBuilt, "instance 0");
+}
+
+TEST_F(SphereQueryErrors, ErrorClearsTheTrace) {
+  std::vector<TraceEntry> trace(4);
+  QuerySettings settings;
+  settings.trace = &trace;
+  expectError(query({Vec3(kNaN, 0, 0), 0.5}, settings), ErrorCode::kInvalidShape, "centre");
+  EXPECT_TRUE(trace.empty());
+}
+
+TEST(Status, CodesHaveNames) {
+  EXPECT_STREQ(toString(ErrorCode::kIndexOutOfRange), "IndexOutOfRange");
+  EXPECT_STREQ(toString(Verdict::kVoided), "Voided");
+  EXPECT_STREQ(toString(FeatureType::kEdge), "Edge");
+}
+
+}  // namespace
+}  // namespace meshcontact

@@ -1,0 +1,259 @@
+// Properties of the sphere pipeline over seeded random placements.
+#include "test_support.h"
+
+#include <meshcontact_scenes/oracle.h>
+
+#include <algorithm>
+#include <thread>
+
+namespace meshcontact {
+namespace {
+
+using scenes::Rng;
+using scenes::SceneMesh;
+using testing::str;
+
+constexpr int kPlacements = 10000;
+
+// On any planar tessellation (random diagonals, vertices jittered in the
+// plane) a sphere whose centre is above the plane and within reach gets
+// exactly one contact, with the plane's normal.
+TEST(SphereProperties, PlanarTessellationGivesExactlyOnePlaneNormalContact) {
+  Rng rng(42);
+  int tried = 0;
+  for (int grid = 0; grid < 4; ++grid) {
+    const double cell = rng.uniform(0.2, 1.0);
+    const SceneMesh floor = scenes::flatFloor(12, 12, cell, 1000 + grid, 0.24);
+    // Tilt and move the floor: the property must hold for any plane.
+    MeshInstance instance{nullptr, Pose::identity()};
+    instance.pose.rotation = rng.rotation();
+    instance.pose.translation = Vec3(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
+    TriangleMesh mesh = testing::buildMesh(floor);
+    instance.mesh = &mesh;
+    const Vec3 plane_normal = instance.pose.rotation * Vec3::UnitZ();
+    QueryScratch scratch;
+    std::vector<Contact> contacts;
+    for (int i = 0; i < kPlacements / 4; ++i, ++tried) {
+      const double radius = rng.uniform(0.05, 1.5) * cell;
+      QuerySettings settings;
+      settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 2.0) * cell;
+      const double reach = radius + settings.contact_distance;
+      // Centre over the floor, away from its border by the reach.
+      const double extent = 12 * cell;
+      const Vec3 local(rng.uniform(reach, extent - reach), rng.uniform(reach, extent - reach),
+                       rng.uniform(1e-6, 1.0) * reach);
+      const Sphere sphere{instance.pose.apply(local), radius};
+      ASSERT_TRUE(collideSphere(&instance, 1, sphere, settings, scratch, contacts).isOk());
+      ASSERT_EQ(contacts.size(), 1u) << "grid " << grid << " placement " << i << " local centre " << str(local)
+                                     << " radius " << radius << " contact_distance " << settings.contact_distance;
+      EXPECT_LE((contacts[0].normal - plane_normal).norm(), 1e-9) << str(contacts[0].normal);
+      EXPECT_NEAR(contacts[0].depth, radius - local.z(), 1e-9 * extent);
+    }
+  }
+  EXPECT_EQ(tried, kPlacements);
+}
+
+struct Placement {
+  Sphere sphere;
+  double contact_distance;
+};
+
+Placement randomPlacement(Rng& rng, const scenes::Scene& scene) {
+  Placement p;
+  p.sphere.center = Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
+                         rng.uniform(scene.lo.z(), scene.hi.z()));
+  p.sphere.radius = rng.uniform(0.05, 0.8);
+  p.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.6);
+  return p;
+}
+
+struct SceneMeshes {
+  std::vector<TriangleMesh> meshes;
+  std::vector<MeshInstance> instances;
+  explicit SceneMeshes(const scenes::Scene& scene) : meshes(scene.pieces.size()) {
+    for (std::size_t i = 0; i < scene.pieces.size(); ++i) {
+      meshes[i] = testing::buildMesh(scene.pieces[i]);
+      instances.push_back({&meshes[i], Pose::identity()});
+    }
+  }
+};
+
+void expectIdentical(const std::vector<Contact>& a, const std::vector<Contact>& b, const std::string& where) {
+  ASSERT_EQ(a.size(), b.size()) << where;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_TRUE(a[i].point == b[i].point && a[i].normal == b[i].normal && a[i].depth == b[i].depth &&
+                a[i].mesh == b[i].mesh && a[i].triangle == b[i].triangle && a[i].feature == b[i].feature)
+        << where << " contact " << i;
+  }
+}
+
+// The result is identical, bit for bit, under any permutation of the
+// candidate triangles (reference §5a: sorting makes the order irrelevant).
+TEST(SphereProperties, ResultIndependentOfCandidateOrder) {
+  Rng rng(7);
+  int with_contacts = 0, tried = 0;
+  for (const scenes::Scene& scene : scenes::accuracyScenes(11)) {
+    SceneMeshes sm(scene);
+    QueryScratch scratch;
+    std::vector<CandidateTriangle> candidates;
+    std::vector<Contact> reference, shuffled;
+    for (int i = 0; i < kPlacements / 5; ++i, ++tried) {
+      const Placement p = randomPlacement(rng, scene);
+      QuerySettings settings;
+      settings.contact_distance = p.contact_distance;
+      const Vec3 reach = Vec3::Constant(p.sphere.radius + p.contact_distance);
+      ASSERT_TRUE(gatherCandidates(sm.instances.data(), sm.instances.size(), p.sphere.center - reach,
+                                   p.sphere.center + reach, KeyMode::kAuto, scratch, candidates)
+                      .isOk());
+      ASSERT_TRUE(collideSphereCandidates(p.sphere, candidates.data(), candidates.size(), settings, scratch, reference)
+                      .isOk());
+      with_contacts += !reference.empty();
+      for (int shuffle = 0; shuffle < 3; ++shuffle) {
+        for (std::size_t k = candidates.size(); k > 1; --k) std::swap(candidates[k - 1], candidates[rng.next() % k]);
+        ASSERT_TRUE(
+            collideSphereCandidates(p.sphere, candidates.data(), candidates.size(), settings, scratch, shuffled)
+                .isOk());
+        expectIdentical(reference, shuffled,
+                        scene.name + " centre " + str(p.sphere.center) + " radius " + std::to_string(p.sphere.radius));
+      }
+    }
+  }
+  EXPECT_EQ(tried, kPlacements);
+  EXPECT_GT(with_contacts, kPlacements / 4);  // the placements do exercise the filter
+}
+
+// Moving mesh and sphere by the same rigid transform moves the contacts with them.
+TEST(SphereProperties, RigidTransformMovesContacts) {
+  Rng rng(99);
+  int tried = 0;
+  for (const scenes::Scene& scene : scenes::accuracyScenes(5)) {
+    SceneMeshes sm(scene);
+    std::vector<MeshInstance> moved = sm.instances;
+    QueryScratch scratch;
+    std::vector<Contact> before, after;
+    for (int i = 0; i < kPlacements / 5; ++i, ++tried) {
+      Pose pose;
+      pose.rotation = rng.rotation();
+      pose.translation = Vec3(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+      for (MeshInstance& m : moved) m.pose = pose;
+      const Placement p = randomPlacement(rng, scene);
+      QuerySettings settings;
+      settings.contact_distance = p.contact_distance;
+      ASSERT_TRUE(collideSphere(sm.instances.data(), sm.instances.size(), p.sphere, settings, scratch, before).isOk());
+      const Sphere moved_sphere{pose.apply(p.sphere.center), p.sphere.radius};
+      ASSERT_TRUE(collideSphere(moved.data(), moved.size(), moved_sphere, settings, scratch, after).isOk());
+      const std::string where = scene.name + " centre " + str(p.sphere.center) + " radius " +
+                                std::to_string(p.sphere.radius) + " cd " + std::to_string(p.contact_distance);
+      ASSERT_EQ(before.size(), after.size()) << where;
+      for (std::size_t k = 0; k < before.size(); ++k) {
+        EXPECT_LE((pose.apply(before[k].point) - after[k].point).norm(), 1e-9) << where;
+        EXPECT_LE((pose.rotation * before[k].normal - after[k].normal).norm(), 1e-9) << where;
+        EXPECT_NEAR(before[k].depth, after[k].depth, 1e-9) << where;
+      }
+    }
+  }
+  EXPECT_EQ(tried, kPlacements);
+}
+
+// §6: a floor cut into separate tiles (duplicated boundary vertices), queried
+// as several meshes, gives the welded floor's contacts.
+TEST(SphereProperties, TiledFloorMatchesWeldedFloor) {
+  const std::vector<SceneMesh> tiles = scenes::tiledFloor(3, 3, 3, 0.5, 31);
+  SceneMesh all;
+  for (const SceneMesh& t : tiles) all.append(t);
+  TriangleMesh welded = testing::buildMesh(scenes::weld(all));
+  EXPECT_FALSE(welded.hasDuplicateVertices());
+  std::vector<TriangleMesh> meshes(tiles.size());
+  std::vector<MeshInstance> instances;
+  for (std::size_t i = 0; i < tiles.size(); ++i) {
+    meshes[i] = testing::buildMesh(tiles[i]);
+    instances.push_back({&meshes[i], Pose::identity()});
+  }
+  EXPECT_EQ(resolveKeyMode(instances.data(), instances.size(), KeyMode::kAuto), KeyMode::kVertexPosition);
+  Rng rng(8);
+  QueryScratch scratch;
+  std::vector<Contact> reference, pieces;
+  int with_contacts = 0;
+  for (int i = 0; i < kPlacements; ++i) {
+    const Sphere sphere{Vec3(rng.uniform(0, 4.5), rng.uniform(0, 4.5), rng.uniform(-0.1, 0.8)), rng.uniform(0.05, 0.8)};
+    QuerySettings settings;
+    settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5);
+    ASSERT_TRUE(collideSphere(welded, sphere, settings, scratch, reference).isOk());
+    ASSERT_TRUE(collideSphere(instances.data(), instances.size(), sphere, settings, scratch, pieces).isOk());
+    with_contacts += !reference.empty();
+    SCOPED_TRACE("Sphere{" + str(sphere.center) + ", " + std::to_string(sphere.radius) + "}");
+    testing::expectSameGeometry(reference, pieces);
+    if (::testing::Test::HasFailure()) break;
+  }
+  EXPECT_GT(with_contacts, kPlacements / 2);
+}
+
+// The midphase never misses a triangle that brute force finds (exact double
+// AABB overlap), and returns nothing whose bounds are clearly apart.
+TEST(Midphase, NeverMissesABruteForceTriangle) {
+  Rng rng(3);
+  // A bumpy, non-planar mesh: a jittered floor with random heights.
+  SceneMesh m = scenes::flatFloor(30, 30, 0.3, 8, 0.4);
+  for (std::size_t v = 0; v < m.vertexCount(); ++v) m.vertices[3 * v + 2] = rng.uniform(-0.5, 0.5);
+  TriangleMesh mesh = testing::buildMesh(m);
+  std::vector<std::uint32_t> hits;
+  std::vector<std::int32_t> stack;
+  int total_hits = 0;
+  for (int i = 0; i < kPlacements; ++i) {
+    const Vec3 centre(rng.uniform(-1, 10), rng.uniform(-1, 10), rng.uniform(-1, 1));
+    const Vec3 half(rng.uniform(0, 0.6), rng.uniform(0, 0.6), rng.uniform(0, 0.6));
+    const Vec3 lo = centre - half, hi = centre + half;
+    hits.clear();
+    mesh.queryBox(lo, hi, hits, stack);
+    std::sort(hits.begin(), hits.end());
+    EXPECT_EQ(std::adjacent_find(hits.begin(), hits.end()), hits.end()) << "duplicate hit";
+    for (std::uint32_t t = 0; t < m.triangleCount(); ++t) {
+      Vec3 tlo = m.vertex(m.indices[3 * t]), thi = tlo;
+      for (int k = 1; k < 3; ++k) {
+        tlo = tlo.cwiseMin(m.vertex(m.indices[3 * t + k]));
+        thi = thi.cwiseMax(m.vertex(m.indices[3 * t + k]));
+      }
+      const bool overlap = (tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all();
+      const bool found = std::binary_search(hits.begin(), hits.end(), t);
+      if (overlap) {
+        EXPECT_TRUE(found) << "missed triangle " << t << " for box " << str(lo) << " " << str(hi);
+      }
+      // Float boxes are only rounded outward by an ulp: no far triangle comes back.
+      const bool far = ((tlo.array() - 1e-5) > hi.array()).any() || ((thi.array() + 1e-5) < lo.array()).any();
+      if (far) {
+        EXPECT_FALSE(found) << "far triangle " << t << " returned";
+      }
+    }
+    total_hits += static_cast<int>(hits.size());
+  }
+  EXPECT_GT(total_hits, kPlacements);  // the boxes do hit the mesh
+}
+
+// Queries are reentrant and thread-safe on a shared mesh: threads with their
+// own scratch give exactly the single-threaded contacts.
+TEST(SphereProperties, ThreadsSharingAMeshGiveTheSingleThreadResult) {
+  const scenes::Scene scene = scenes::accuracyScenes(21)[1];  // the step
+  SceneMeshes sm(scene);
+  Rng rng(17);
+  std::vector<Placement> placements;
+  for (int i = 0; i < 4000; ++i) placements.push_back(randomPlacement(rng, scene));
+  auto run = [&](std::size_t begin, std::size_t stride, std::vector<std::vector<Contact>>& out) {
+    QueryScratch scratch;
+    for (std::size_t i = begin; i < placements.size(); i += stride) {
+      QuerySettings settings;
+      settings.contact_distance = placements[i].contact_distance;
+      if (!collideSphere(sm.instances.data(), sm.instances.size(), placements[i].sphere, settings, scratch, out[i])
+               .isOk())
+        out[i].assign(1, Contact{});  // surfaced below as a mismatch
+    }
+  };
+  std::vector<std::vector<Contact>> single(placements.size()), threaded(placements.size());
+  run(0, 1, single);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < 4; ++t) threads.emplace_back(run, t, 4, std::ref(threaded));
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = 0; i < placements.size(); ++i) expectIdentical(single[i], threaded[i], std::to_string(i));
+}
+
+}  // namespace
+}  // namespace meshcontact
