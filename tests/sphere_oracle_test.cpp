@@ -2,12 +2,14 @@
 // >= 100,000 random placements per scene (flat tessellation, cliff/step,
 // concave V-groove, convex ridge, tiled floor of separate meshes). The naive
 // closest-point method is scored on the same placements, to show the oracle
-// does see ghosts where they exist.
+// does see ghosts where they exist. Each scene is also run scaled by 1e-3 and
+// 1e3 and moved 1e5 away from the origin (tolerances are relative).
 #include "test_support.h"
 
 #include <meshcontact_scenes/oracle.h>
 
 #include <cstdio>
+#include <tuple>
 
 namespace meshcontact {
 namespace {
@@ -21,10 +23,31 @@ struct Tally {
   int placements = 0, with_valid = 0, contacts = 0, ghosts = 0, misses = 0;
 };
 
-class SphereOracleTest : public ::testing::TestWithParam<int> {};
+// The whole scene (meshes, placements, radii, contact distances) is scaled
+// and moved: tolerances are relative, so the oracle must still find nothing.
+struct Frame {
+  const char* name;
+  double scale;
+  double offset;
+};
+constexpr Frame kFrames[] = {{"unit", 1.0, 0.0}, {"milli", 1e-3, 0.0}, {"kilo", 1e3, 0.0}, {"far", 1.0, 1e5}};
+
+scenes::Scene transformed(scenes::Scene scene, const Frame& frame) {
+  const Vec3 offset = Vec3::Constant(frame.offset);
+  for (scenes::SceneMesh& piece : scene.pieces)
+    for (std::size_t v = 0; v < piece.vertexCount(); ++v)
+      for (int k = 0; k < 3; ++k) piece.vertices[3 * v + k] = piece.vertices[3 * v + k] * frame.scale + offset[k];
+  scene.lo = scene.lo * frame.scale + offset;
+  scene.hi = scene.hi * frame.scale + offset;
+  return scene;
+}
+
+class SphereOracleTest : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(SphereOracleTest, ZeroGhostsZeroMisses) {
-  const scenes::Scene scene = scenes::accuracyScenes(2024)[static_cast<std::size_t>(GetParam())];
+  const Frame& frame = kFrames[std::get<1>(GetParam())];
+  const scenes::Scene scene =
+      transformed(scenes::accuracyScenes(2024)[static_cast<std::size_t>(std::get<0>(GetParam()))], frame);
   std::vector<TriangleMesh> meshes(scene.pieces.size());
   std::vector<MeshInstance> instances;
   scenes::SceneMesh all;
@@ -34,16 +57,16 @@ TEST_P(SphereOracleTest, ZeroGhostsZeroMisses) {
     all.append(scene.pieces[i]);
   }
   const scenes::SphereOracle oracle(all);  // welds the pieces
-  Rng rng(77 + static_cast<std::uint64_t>(GetParam()));
+  Rng rng(77 + static_cast<std::uint64_t>(std::get<0>(GetParam())));
   QueryScratch scratch;
   std::vector<Contact> contacts, naive;
   Tally voided, baseline;
   for (int i = 0; i < kPlacementsPerScene; ++i) {
     const Sphere sphere{Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
                              rng.uniform(scene.lo.z(), scene.hi.z())),
-                        rng.uniform(0.05, 0.8)};
+                        rng.uniform(0.05, 0.8) * frame.scale};
     QuerySettings settings;
-    settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5);
+    settings.contact_distance = (rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5)) * frame.scale;
     ASSERT_TRUE(collideSphere(instances.data(), instances.size(), sphere, settings, scratch, contacts).isOk());
     const std::vector<Vec3> valid = oracle.validNormals(sphere.center, sphere.radius + settings.contact_distance);
     const auto score = scenes::SphereOracle::score(valid, contacts);
@@ -65,9 +88,9 @@ TEST_P(SphereOracleTest, ZeroGhostsZeroMisses) {
     baseline.ghosts += naive_score.ghosts;
     baseline.misses += naive_score.misses;
   }
-  std::printf("[oracle] %-8s placements %d (with valid contacts %d): voided-features %d contacts, %d ghosts, %d "
+  std::printf("[oracle] %-8s %-5s placements %d (with valid contacts %d): voided-features %d contacts, %d ghosts, %d "
               "misses | naive closest-point %d contacts, %d ghosts, %d misses\n",
-              scene.name.c_str(), voided.placements, voided.with_valid, voided.contacts, voided.ghosts, voided.misses,
+              scene.name.c_str(), frame.name, voided.placements, voided.with_valid, voided.contacts, voided.ghosts, voided.misses,
               baseline.contacts, baseline.ghosts, baseline.misses);
   EXPECT_EQ(voided.placements, kPlacementsPerScene);
   EXPECT_EQ(voided.ghosts, 0);
@@ -77,9 +100,11 @@ TEST_P(SphereOracleTest, ZeroGhostsZeroMisses) {
   EXPECT_EQ(baseline.misses, 0);                          // the naive method keeps everything valid
 }
 
-INSTANTIATE_TEST_SUITE_P(Scenes, SphereOracleTest, ::testing::Range(0, 5), [](const auto& info) {
-  return scenes::accuracyScenes(2024)[static_cast<std::size_t>(info.param)].name;
-});
+INSTANTIATE_TEST_SUITE_P(Scenes, SphereOracleTest, ::testing::Combine(::testing::Range(0, 5), ::testing::Range(0, 4)),
+                         [](const auto& info) {
+                           return scenes::accuracyScenes(2024)[static_cast<std::size_t>(std::get<0>(info.param))].name +
+                                  "_" + kFrames[std::get<1>(info.param)].name;
+                         });
 
 }  // namespace
 }  // namespace meshcontact
