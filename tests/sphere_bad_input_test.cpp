@@ -157,6 +157,49 @@ TEST_F(SphereQueryErrors, ErrorClearsTheTrace) {
   EXPECT_TRUE(trace.empty());
 }
 
+// Found by fuzzing: coordinates near the top of the double range made the
+// closest-point products overflow into a NaN depth. Such input is now an error.
+TEST(Ranges, CoordinatesBeyondTheSupportedRangeAreErrors) {
+  std::vector<double> vertices = kVertices;
+  vertices[3] = 1e200;
+  TriangleMesh mesh;
+  expectError(mesh.build(vertices, kIndices), ErrorCode::kNonFiniteVertex, "1e50");
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  expectError(collideSphere(mesh, {Vec3(1e60, 0, 0), 1.0}, {}, scratch, contacts), ErrorCode::kInvalidShape, "1e50");
+  expectError(collideSphere(mesh, {Vec3(0, 0, 0), 1e60}, {}, scratch, contacts), ErrorCode::kInvalidShape, "1e50");
+  // Within range but the sum overflows the query box: still an error, not a NaN.
+  expectError(collideSphere(mesh, {Vec3(1e50, 0, 0), 1e50}, {}, scratch, contacts), ErrorCode::kInvalidShape,
+              "query box");
+}
+
+// Found by fuzzing: at denormal scales |d| underflowed and d / |d| was not a
+// unit vector. The narrowphase now works on edges scaled to the triangle's
+// size and normalises through normalizedOr().
+TEST(Ranges, TinyScalesStillGiveUnitNormals) {
+  for (double scale : {1e-150, 1e-300}) {
+    const std::vector<double> vertices = {0, 0, 0, scale, 0, 0, 0, scale, 0};
+    TriangleMesh mesh;
+    ASSERT_TRUE(mesh.build(vertices, kIndices).isOk());
+    // The area (1e-600 at the smallest scale) is computed on scaled edges.
+    EXPECT_EQ(mesh.degenerateTriangleCount(), 0u);
+    QueryScratch scratch;
+    std::vector<Contact> contacts;
+    QuerySettings settings;
+    settings.filter = FilterMode::kNone;
+    // Beyond an edge, then over the face.
+    for (const Vec3& centre : {Vec3(0.5 * scale, -0.25 * scale, 0.1 * scale), Vec3(0.2 * scale, 0.2 * scale, 0.1 * scale)}) {
+      ASSERT_TRUE(collideSphere(mesh, {centre, 0.5 * scale}, settings, scratch, contacts).isOk());
+      EXPECT_EQ(contacts.size(), 1u);
+      for (const Contact& c : contacts) {
+        EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12) << "scale " << scale;
+        EXPECT_TRUE(std::isfinite(c.depth));
+      }
+    }
+  }
+}
+
 TEST(Status, CodesHaveNames) {
   EXPECT_STREQ(toString(ErrorCode::kIndexOutOfRange), "IndexOutOfRange");
   EXPECT_STREQ(toString(Verdict::kVoided), "Voided");

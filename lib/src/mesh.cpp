@@ -45,9 +45,13 @@ std::array<std::uint64_t, 3> positionBits(const double* p) {
 }  // namespace
 
 bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a;
-  const Vec3 ac = c - a;
-  const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
+  // Edges scaled to a largest component of 1: the test is then the same at
+  // every scale, with no underflow of the squared lengths.
+  const double scale = std::max((b - a).cwiseAbs().maxCoeff(), (c - a).cwiseAbs().maxCoeff());
+  if (!(scale > 0.0) || !std::isfinite(scale)) return true;
+  const Vec3 ab = (b - a) / scale;
+  const Vec3 ac = (c - a) / scale;
+  const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (ac - ab).squaredNorm()});
   const double twice_area = ab.cross(ac).norm();
   // !(>) so that NaN counts as degenerate.
   return !(twice_area > 1e-12 * longest2);
@@ -105,10 +109,10 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
                                       " triangles; at most 2^31-1 of each are supported"};
   for (std::size_t i = 0; i < view.vertex_count; ++i) {
     const double* p = view.vertices + 3 * i;
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      return {ErrorCode::kNonFiniteVertex, "vertex " + std::to_string(i) + " has a non-finite coordinate (" +
-                                               std::to_string(p[0]) + ", " + std::to_string(p[1]) + ", " +
-                                               std::to_string(p[2]) + ")"};
+    if (!inRange(p[0]) || !inRange(p[1]) || !inRange(p[2]))
+      return {ErrorCode::kNonFiniteVertex, "vertex " + std::to_string(i) + " has a non-finite coordinate or one "
+                                               "beyond +-1e50 (" + std::to_string(p[0]) + ", " + std::to_string(p[1]) +
+                                               ", " + std::to_string(p[2]) + ")"};
   }
   for (std::size_t t = 0; t < view.triangle_count; ++t) {
     for (int k = 0; k < 3; ++k) {

@@ -40,9 +40,9 @@ detail::PositionKey positionKey(const Vec3& p) {
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
   out.clear();
-  if (!lo.allFinite() || !hi.allFinite() || (lo.array() > hi.array()).any())
+  if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
-                                          " is not finite or has lo > hi"};
+                                          " is not finite, reaches beyond +-1e50, or has lo > hi"};
   for (std::size_t m = 0; m < count; ++m) {
     if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt())
       return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
@@ -102,10 +102,12 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
 namespace {
 
 Status checkSphere(const Sphere& sphere) {
-  if (!sphere.center.allFinite())
-    return {ErrorCode::kInvalidShape, "sphere centre is not finite: " + detail::describe(sphere.center)};
-  if (!std::isfinite(sphere.radius) || sphere.radius < 0.0)
-    return {ErrorCode::kInvalidShape, "sphere radius must be finite and >= 0, got " + std::to_string(sphere.radius)};
+  if (!detail::inRange(sphere.center))
+    return {ErrorCode::kInvalidShape,
+            "sphere centre is not finite or beyond +-1e50: " + detail::describe(sphere.center)};
+  if (!inRange(sphere.radius) || sphere.radius < 0.0)
+    return {ErrorCode::kInvalidShape,
+            "sphere radius must be finite, >= 0 and <= 1e50, got " + std::to_string(sphere.radius)};
   return Status::ok();
 }
 
@@ -118,18 +120,24 @@ struct SphereNarrowphase {
 
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     const Vec3& a = t.vertices[0];
-    const Vec3& b = t.vertices[1];
-    const Vec3& c = t.vertices[2];
-    const Vec3 ab = b - a, ac = c - a;
-    Vec3 n = ab.cross(ac);
-    const double twice_area = n.norm();
-    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
-    if (!(twice_area > 1e-12 * longest2)) {
+    if (isDegenerateTriangle(a, t.vertices[1], t.vertices[2])) {  // same test as at build time
       p.distance = (center - a).norm();
       return detail::PatchOutcome::kDegenerate;
     }
-    n /= twice_area;
-    const double height = n.dot(center - a);
+    // Work relative to vertex a, scaled to the triangle's size: the products
+    // of Ericson §5.1.5 (four lengths deep) neither overflow nor underflow at
+    // any scale the API accepts, and the result does not depend on where the
+    // triangle sits.
+    const double scale = std::max((t.vertices[1] - a).cwiseAbs().maxCoeff(), (t.vertices[2] - a).cwiseAbs().maxCoeff());
+    const Vec3 b = (t.vertices[1] - a) / scale;
+    const Vec3 c = (t.vertices[2] - a) / scale;
+    const Vec3 n = normalizedOr(b.cross(c), Vec3::Zero());
+    if (n.isZero()) {
+      p.distance = (center - a).norm();
+      return detail::PatchOutcome::kDegenerate;
+    }
+    const Vec3 rel = center - a;
+    const double height = n.dot(rel);
     if (height < 0.0) {  // centre behind the plane
       p.distance = -height;
       return detail::PatchOutcome::kBackFacing;
@@ -138,21 +146,22 @@ struct SphereNarrowphase {
       p.distance = height;
       return detail::PatchOutcome::kBeyondContactDistance;
     }
-    const ClosestPoint cp = closestPointOnTriangle(center, a, b, c);
+    const ClosestPoint cp = closestPointOnTriangle(rel / scale, Vec3::Zero(), b, c);
     p.feature = cp.feature;
     double distance;
     if (cp.feature.type == FeatureType::kFace) {
       distance = height;  // exact for the face region, and never NaN
       p.normal = n;
     } else {
-      const Vec3 d = center - cp.point;
+      const Vec3 d = rel - cp.point * scale;
       distance = d.norm();
       // §4b: if the centre is on the feature, fall back to the face normal.
       // "On" is relative to the scene's scale, not an absolute epsilon.
-      const double tiny = 1e-12 * std::max(radius, std::sqrt(longest2));
-      p.normal = distance > tiny ? Vec3(d / distance) : n;
+      const double tiny = 1e-12 * std::max(radius, scale);
+      p.normal = distance > tiny ? normalizedOr(d, n) : n;
     }
     p.distance = distance;
+    if (!std::isfinite(distance)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
     if (distance > inflated) return detail::PatchOutcome::kBeyondContactDistance;
     p.count = 1;
     p.points[0] = center - radius * p.normal;

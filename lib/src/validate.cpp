@@ -13,8 +13,9 @@ std::string describe(const Vec3& v) {
 }
 
 Status checkPose(const Pose& pose, const char* what) {
-  if (!pose.rotation.allFinite() || !pose.translation.allFinite())
-    return {ErrorCode::kInvalidPose, std::string(what) + ": pose has a non-finite entry"};
+  if (!pose.rotation.allFinite() || !inRange(pose.translation))
+    return {ErrorCode::kInvalidPose,
+            std::string(what) + ": pose has a non-finite entry or a translation beyond +-1e50: " + describe(pose.translation)};
   // Orthonormal with det +1, to a tolerance relative to 1 (rotations are unitless).
   const double err = (pose.rotation.transpose() * pose.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
   if (!(err <= 1e-9) || !(pose.rotation.determinant() > 0.0))
@@ -24,9 +25,9 @@ Status checkPose(const Pose& pose, const char* what) {
 }
 
 Status checkContactDistance(double contact_distance) {
-  if (!std::isfinite(contact_distance) || contact_distance < 0.0)
+  if (!inRange(contact_distance) || contact_distance < 0.0)
     return {ErrorCode::kInvalidSettings,
-            "contact_distance must be finite and >= 0, got " + std::to_string(contact_distance)};
+            "contact_distance must be finite, >= 0 and <= 1e50, got " + std::to_string(contact_distance)};
   return Status::ok();
 }
 

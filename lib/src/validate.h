@@ -8,7 +8,10 @@
 
 namespace meshcontact::detail {
 
-inline bool isFinite(const Vec3& v) { return v.allFinite(); }
+using meshcontact::inRange;
+
+/// Finite and within +-kMaxCoordinate on every axis.
+inline bool inRange(const Vec3& v) { return meshcontact::inRange(v.x()) && meshcontact::inRange(v.y()) && meshcontact::inRange(v.z()); }
 
 Status checkPose(const Pose& pose, const char* what);
 Status checkContactDistance(double contact_distance);

@@ -4,12 +4,21 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross(); pulls in LU for determinant()
 
+#include <cmath>
 #include <cstdint>
 
 namespace meshcontact {
 
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
+
+/// Largest magnitude accepted for any coordinate, translation, radius,
+/// extent or contact distance. The narrowphases multiply up to four lengths
+/// together (Ericson §5.1.5's d1*d4 terms); within +-1e50 nothing overflows.
+/// Larger inputs are rejected with a clear error, never turned into NaN.
+constexpr double kMaxCoordinate = 1e50;
+
+inline bool inRange(double x) { return std::abs(x) <= kMaxCoordinate; }  // false for NaN/Inf
 
 /// Rigid transform x' = rotation * x + translation.
 /// `rotation` must be orthonormal with determinant +1 (checked on every query
@@ -39,6 +48,16 @@ struct Pose {
   /// vertex positions bit-for-bit, which position keys rely on.
   bool isIdentity() const { return rotation == Mat3::Identity() && translation == Vec3::Zero(); }
 };
+
+/// v / |v|, computed without overflow or underflow (v is first scaled by its
+/// largest component, so denormal or huge vectors still give a unit result);
+/// `fallback` when v is zero or not finite. Never returns NaN.
+inline Vec3 normalizedOr(const Vec3& v, const Vec3& fallback) {
+  const double m = v.cwiseAbs().maxCoeff();
+  if (!(m > 0.0) || !std::isfinite(m)) return fallback;
+  const Vec3 u = v / m;
+  return u / u.norm();
+}
 
 /// Which feature of a triangle a contact comes from. Triangle (v0, v1, v2):
 /// edge k joins vertex k and vertex (k + 1) % 3; vertex k is vk.

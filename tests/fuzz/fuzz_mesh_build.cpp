@@ -1,0 +1,44 @@
+// Fuzz target (a): mesh construction from arbitrary vertex / index bytes.
+// Either build() fails with a clear error and leaves the mesh empty, or the
+// mesh is valid and a query on it returns only well-formed contacts.
+#include "fuzz_common.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace meshcontact;
+  FuzzedDataProvider in(data, size);
+  const fuzz::RawMesh raw = fuzz::rawMesh(in);
+  TriangleMesh mesh;
+  const Status s = mesh.build(raw.vertices, raw.indices);
+  if (!s) {
+    MC_FUZZ_CHECK(!s.message().empty());
+    MC_FUZZ_CHECK(!mesh.isBuilt());
+    return 0;
+  }
+  MC_FUZZ_CHECK(mesh.isBuilt());
+  MC_FUZZ_CHECK(mesh.triangleCount() == raw.indices.size() / 3);
+  MC_FUZZ_CHECK(mesh.degenerateTriangleCount() <= mesh.triangleCount());
+  // Every BVH leaf names a valid, non-degenerate triangle.
+  std::size_t leaves = 0;
+  for (const BvhNode& node : mesh.bvh()) {
+    if (node.first_child >= 0) {
+      MC_FUZZ_CHECK(static_cast<std::size_t>(node.first_child) + 1 < mesh.bvh().size());
+      continue;
+    }
+    ++leaves;
+    MC_FUZZ_CHECK(node.triangle < mesh.triangleCount());
+  }
+  MC_FUZZ_CHECK(leaves == mesh.triangleCount() - mesh.degenerateTriangleCount());
+  // A sphere around each vertex: well-formed contacts, no NaN.
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  const MeshInstance instance{&mesh, Pose::identity()};
+  QuerySettings settings;
+  settings.filter = in.ConsumeBool() ? FilterMode::kVoidedFeatures : FilterMode::kNone;
+  for (std::size_t v = 0; v < mesh.vertexCount() && v < 8; ++v) {
+    const Vec3 centre = mesh.vertex(static_cast<std::uint32_t>(v)) + Vec3(0.01, -0.02, 0.03);
+    const Status q = collideSphere(&instance, 1, {centre, 0.5}, settings, scratch, contacts);
+    if (q) fuzz::checkContacts(contacts, &instance, 1);
+    else fuzz::checkError(q, contacts);
+  }
+  return 0;
+}
