@@ -17,7 +17,7 @@ namespace {
 using scenes::Rng;
 using testing::str;
 
-constexpr int kPlacementsPerScene = 100000;
+const int kPlacementsPerScene = testing::scaled(100000);
 
 struct Tally {
   int placements = 0, with_valid = 0, contacts = 0, ghosts = 0, misses = 0;

@@ -13,7 +13,7 @@ using scenes::Rng;
 using scenes::SceneMesh;
 using testing::str;
 
-constexpr int kPlacements = 10000;
+const int kPlacements = testing::scaled(10000);
 
 // On any planar tessellation (random diagonals, vertices jittered in the
 // plane) a sphere whose centre is above the plane and within reach gets

@@ -6,11 +6,22 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
 
 namespace meshcontact::testing {
+
+/// Placement counts scale with MESHCONTACT_TEST_SCALE (default 1): the
+/// sanitizer stage of scripts/test runs the same tests on a tenth of the
+/// placements, since ASan/UBSan make them ~25x slower. Never below 100.
+inline int scaled(int placements) {
+  const char* env = std::getenv("MESHCONTACT_TEST_SCALE");
+  const double scale = env ? std::atof(env) : 1.0;
+  if (!(scale > 0.0) || scale >= 1.0) return placements;
+  return std::max(100, static_cast<int>(placements * scale));
+}
 
 inline std::string str(const Vec3& v) {
   std::ostringstream s;
