@@ -46,8 +46,9 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
   for (std::size_t m = 0; m < count; ++m) {
     if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt())
       return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
-    Status s = detail::checkPose(instances[m].pose, ("mesh instance " + std::to_string(m)).c_str());
-    if (!s) return s;
+    // The name is built only on failure: no string (and no allocation) per query.
+    Status s = detail::checkPose(instances[m].pose, "mesh instance");
+    if (!s) return {s.code(), s.message() + " (instance " + std::to_string(m) + ")"};
   }
   const KeyMode mode = resolveKeyMode(instances, count, key_mode);
   QueryScratch::Impl& sc = scratch.impl();
