@@ -1,5 +1,6 @@
 #pragma once
 #include "meshcontact/query.h"
+#include "manifold_reduction.h"
 #include "stamped_set.h"
 #include "voided_features.h"
 
@@ -17,6 +18,8 @@ struct QueryScratch::Impl {
   detail::StampedMap<detail::PositionKey, std::uint32_t, detail::PositionHash> positions;
   // Narrowphase + filter.
   detail::FilterScratch filter;
+  // Manifold reduction (capsule, box, ...).
+  detail::ManifoldScratch manifold;
 };
 
 }  // namespace meshcontact

@@ -9,6 +9,15 @@
 //     midphase's order), and processed in one pass: a patch whose edge or
 //     vertex is voided is dropped, and every processed triangle is voided
 //     whether or not it produced a contact (§5a, §5b).
+//   - a delayed patch may also carry its triangle's face part (shapes that
+//     extend over several triangles: the capsule's core, part of which lies
+//     over this face while its closest point to the triangle is on an edge).
+//     That part is a face contact of its own (each sphere of the swept core
+//     over the face has the face as its closest feature), and "all face
+//     contacts are kept" (§4a): it is written whether the delayed patch is
+//     kept or voided. It does not void the triangle in the first pass: that
+//     would void the triangle's own edge and lose a real edge contact (a
+//     core tilted over a cliff edge).
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -29,8 +38,17 @@ struct Patch {
   double distance = 0.0;  // shape-to-triangle distance: the delayed sort key
   Vec3 normal = Vec3::UnitZ();
   int count = 0;
+  /// Edge / vertex patches only, optional (0 points: none; the filter resets
+  /// face_count before each call): the triangle's face part (see above),
+  /// normal `face_normal` (the face's). Only for a part of the shape that
+  /// lies over the face's interior, in front of it and within reach. (Next
+  /// to `count`: the filter's reset touches no extra cache line.)
+  int face_count = 0;
   Vec3 points[4];
   double depths[4] = {0, 0, 0, 0};
+  Vec3 face_normal = Vec3::UnitZ();
+  Vec3 face_points[4];
+  double face_depths[4] = {0, 0, 0, 0};
 };
 
 enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
@@ -124,7 +142,9 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   for (std::size_t i = 0; i < count; ++i) {
     const CandidateTriangle& c = candidates[i];
     Patch& p = s.patches[used];
+    p.face_count = 0;
     const PatchOutcome outcome = narrowphase(c, p);
+    if (!filter) p.face_count = 0;  // the naive method: the closest feature only
     if (outcome != PatchOutcome::kContact) {
       if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, outcomeVerdict(outcome)});
       continue;
@@ -144,13 +164,21 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // Pass 2: delayed contacts in distance order, voiding unconditionally (§5).
   std::sort(s.delayed.begin(), s.delayed.end());
   for (const SortItem& item : s.delayed) {
-    const Patch& p = s.patches[item.patch];
+    Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
     const bool voided = s.voided.isVoided(p.feature, c.keys);
-    if (!voided) s.accepted.push_back(item);
+    const bool face_only = voided && p.face_count > 0;
+    if (face_only) {  // the patch becomes its face part
+      p.feature = Feature::face();
+      p.normal = p.face_normal;
+      p.count = p.face_count;
+      for (int k = 0; k < p.count; ++k) p.points[k] = p.face_points[k], p.depths[k] = p.face_depths[k];
+      p.face_count = 0;
+    }
+    const Verdict verdict = face_only ? Verdict::kFaceContact : voided ? Verdict::kVoided : contactVerdict(p.feature);
+    if (!voided || face_only) s.accepted.push_back(item);
     s.voided.voidTriangle(c.keys);
-    if (trace)
-      trace->push_back({c.mesh, c.triangle, p.feature, p.distance, voided ? Verdict::kVoided : contactVerdict(p.feature)});
+    if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, verdict});
   }
 
   // Output in an order that only depends on the triangles' identities.
@@ -169,6 +197,16 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       contact.mesh = item.mesh;
       contact.triangle = item.triangle;
       contact.feature = p.feature;
+      contacts.push_back(contact);
+    }
+    for (int k = 0; k < p.face_count; ++k) {  // a kept delayed patch's face part
+      Contact contact;
+      contact.point = p.face_points[k];
+      contact.normal = p.face_normal;
+      contact.depth = p.face_depths[k];
+      contact.mesh = item.mesh;
+      contact.triangle = item.triangle;
+      contact.feature = Feature::face();
       contacts.push_back(contact);
     }
   }

@@ -81,6 +81,19 @@ struct QuerySettings {
   /// When non-null, cleared and filled with one entry per candidate triangle
   /// (not free: for tests and debugging).
   std::vector<TraceEntry>* trace = nullptr;
+  /// Manifold reduction (shapes other than the sphere; runs after the
+  /// filter): contacts whose normals agree within `manifold_angle_deg` form
+  /// one manifold, reduced to at most 4 contacts (the deepest, then the ones
+  /// spanning the largest area). A box resting on a tessellated floor then
+  /// gets 4 contacts, not a patch per triangle. Contacts are selected, never
+  /// averaged: each kept contact is one the filter produced. The trace still
+  /// reports the filter's verdict for triangles whose contacts were dropped
+  /// here.
+  bool reduce_manifold = true;
+  /// Angle (degrees, in [0, 90)) within which two contact normals count as
+  /// one manifold. The default tolerates tessellation noise on a flat or
+  /// gently curved surface, and keeps the two slopes of a groove apart.
+  double manifold_angle_deg = 3.0;
 };
 
 }  // namespace meshcontact

@@ -1,6 +1,7 @@
 #pragma once
 // Umbrella header.
 #include "meshcontact/contact.h"
+#include "meshcontact/convex.h"
 #include "meshcontact/geometry.h"
 #include "meshcontact/mesh.h"
 #include "meshcontact/query.h"

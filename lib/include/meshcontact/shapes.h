@@ -37,4 +37,55 @@ struct Cylinder {
   double half_length = 0.0;
 };
 
+// ---------------------------------------------------------------------------
+// Capsule and box queries. Same shape as collideSphere (query.h): `pose` places
+// the shape in the query frame; contacts are in the query frame and sorted by
+// (mesh, triangle) before the optional manifold reduction (QuerySettings).
+// The result never depends on the order of the candidates.
+// Errors: kInvalidShape (non-finite or negative radius / half_length /
+// half_extents, or a box whose half extents are all 0), kInvalidPose
+// (non-finite or non-orthonormal pose), kInvalidSettings (contact distance,
+// manifold angle), plus the midphase's errors (gatherCandidates).
+
+/// Capsule vs each candidate: exact closest features between the capsule's
+/// segment and the triangle (Ericson 5.1.9). One-sided: a triangle is culled
+/// when the whole segment is strictly behind its plane (the sphere's rule
+/// applied to the capsule's core), and only the part of the segment in front
+/// of the plane is used for closest features, so a normal never points to
+/// the triangle's back. A capsule lying along a face gets 2 points (its
+/// segment clipped to the triangle's prism), each reported when within the
+/// contact distance. A triangle whose closest feature is an edge or vertex
+/// while part of the segment lies over its face within reach reports that
+/// part as face contacts too, kept even when the filter voids the edge (a
+/// capsule tilted over a tessellated floor keeps both ends).
+Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const CandidateTriangle* candidates,
+                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                                std::vector<Contact>& contacts);
+Status collideCapsule(const TriangleMesh& mesh, const Capsule& capsule, const Pose& pose,
+                      const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+Status collideCapsule(const MeshInstance* instances, std::size_t count, const Capsule& capsule, const Pose& pose,
+                      const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+
+/// Box vs each candidate. One-sided, the sphere's rule applied to the box's
+/// centre (its core): a triangle is culled when the box's centre is behind
+/// its plane, even if the box overlaps it (a box beside a cliff's wall with
+/// its centre below the ledge is pushed away from the wall, never up onto
+/// the ledge). Separated (within the contact distance): the exact closest
+/// points of box and triangle, feature = the triangle's feature holding the
+/// closest point, normal from it toward the box (the triangle normal for a
+/// face), depth = -distance. Penetrating: the triangle under the box's
+/// deepest point below its plane owns a face contact (normal = triangle
+/// normal, depth = that point's depth); others get the separating axis of
+/// least penetration (separating axes: triangle normal, 3 box faces, 9
+/// edge-edge crosses; face axes preferred, never a normal into the
+/// triangle's back). Up to 4 points per triangle by clipping (a box lying
+/// flat on a tessellated floor ends with 4 after the manifold reduction).
+/// See box.cpp for the details.
+Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
+                            const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+Status collideBox(const TriangleMesh& mesh, const Box& box, const Pose& pose, const QuerySettings& settings,
+                  QueryScratch& scratch, std::vector<Contact>& contacts);
+Status collideBox(const MeshInstance* instances, std::size_t count, const Box& box, const Pose& pose,
+                  const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+
 }  // namespace meshcontact

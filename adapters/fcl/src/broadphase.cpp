@@ -1,0 +1,201 @@
+// BroadphaseCollector: pairs from an FCL broadphase manager, grouped per
+// shape so that all the meshes a shape touches are filtered as one surface
+// (reference §6: seams between separate meshes are internal edges too).
+#include "internal.h"
+
+#include <algorithm>
+#include <string>
+
+namespace meshcontact::fcl {
+
+struct BroadphaseCollector::Impl {
+  ::fcl::CollisionRequestd request;
+  Options options;
+  Scratch scratch;
+
+  struct Pair {
+    const ::fcl::CollisionObjectd* a;  // grouped: the shape; forwarded: o1
+    const ::fcl::CollisionObjectd* b;  // grouped: the mesh; forwarded: o2
+    std::uint32_t seq;                 // order of arrival
+    bool grouped;
+  };
+  std::vector<Pair> pairs;
+  std::uint32_t next_seq = 0;
+
+  // finish() scratch.
+  struct Job {
+    std::uint32_t first_seq;
+    std::uint32_t begin, end;  // range in `pairs` (sorted) for a group; begin = end = index for a forwarded pair
+    bool grouped;
+  };
+  std::vector<Job> jobs;
+  std::vector<const ::fcl::CollisionObjectd*> group_meshes;
+  std::vector<const ::fcl::CollisionGeometryd*> group_geometries;
+  ::fcl::CollisionResultd forwarded;
+
+  std::vector<ObjectContact> contacts;
+
+  Status runGroup(const Job& job);
+  Status runForwarded(const Pair& pair);
+};
+
+BroadphaseCollector::BroadphaseCollector(const ::fcl::CollisionRequestd& request, const Options& options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->request = request;
+  impl_->options = options;
+}
+
+BroadphaseCollector::~BroadphaseCollector() = default;
+
+bool BroadphaseCollector::callback(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* collector) {
+  Impl& impl = *static_cast<BroadphaseCollector*>(collector)->impl_;
+  detail::MeshDesc mesh;
+  detail::ShapeDesc shape;
+  const ::fcl::CollisionGeometryd* g1 = o1 ? o1->collisionGeometry().get() : nullptr;
+  const ::fcl::CollisionGeometryd* g2 = o2 ? o2->collisionGeometry().get() : nullptr;
+  const std::uint32_t seq = impl.next_seq++;
+  if (!impl.request.enable_cost && detail::describeMesh(g1, mesh) && detail::describeShape(g2, shape))
+    impl.pairs.push_back({o2, o1, seq, true});
+  else if (!impl.request.enable_cost && detail::describeShape(g1, shape) && detail::describeMesh(g2, mesh))
+    impl.pairs.push_back({o1, o2, seq, true});
+  else
+    impl.pairs.push_back({o1, o2, seq, false});
+  return false;  // the grouped queries need every pair first
+}
+
+Status BroadphaseCollector::Impl::runForwarded(const Pair& pair) {
+  forwarded.clear();
+  Report report;
+  Status s = collide(pair.a, pair.b, request, forwarded, options, scratch, &report);
+  if (!s) return s;
+  for (std::size_t i = 0; i < forwarded.numContacts(); ++i)
+    contacts.push_back({pair.a, pair.b, forwarded.getContact(i)});
+  return Status::ok();
+}
+
+Status BroadphaseCollector::Impl::runGroup(const Job& job) {
+  const ::fcl::CollisionObjectd* shape_object = pairs[job.begin].a;
+  detail::ShapeDesc shape;
+  detail::describeShape(shape_object->collisionGeometry().get(), shape);
+  Pose shape_pose;
+  Status s = detail::poseFromTransform(shape_object->getTransform(), "shape", shape_pose);
+  if (!s) return s;
+
+  // The query frame is the first mesh's frame: a single mesh gives exactly
+  // collide()'s result, and meshes with bitwise-equal transforms keep
+  // bitwise-equal shared vertices (their seams are then recognized).
+  group_meshes.clear();
+  group_geometries.clear();
+  for (std::uint32_t i = job.begin; i < job.end; ++i) {
+    const ::fcl::CollisionObjectd* m = pairs[i].b;
+    if (std::find(group_meshes.begin(), group_meshes.end(), m) != group_meshes.end()) continue;
+    group_meshes.push_back(m);
+    group_geometries.push_back(m->collisionGeometry().get());
+  }
+  const ::fcl::Transform3d& frame_tf = group_meshes[0]->getTransform();
+  Pose frame;
+  s = detail::poseFromTransform(frame_tf, "mesh 0 of the group", frame);
+  if (!s) return s;
+  const Pose shape_in_frame = detail::relativePose(frame, shape_pose);
+
+  Scratch::Impl& sc = scratch.impl();
+  sc.candidates.clear();
+  for (std::size_t j = 0; j < group_meshes.size(); ++j) {
+    const ::fcl::CollisionObjectd& mo = *group_meshes[j];
+    detail::MeshDesc mesh;
+    detail::describeMesh(group_geometries[j], mesh);
+    const std::string name = "mesh " + std::to_string(j) + " of the group";
+    Pose mesh_pose, shape_in_model;
+    s = detail::checkPair(mesh, mo, *shape_object, name.c_str(), "shape", mesh_pose, shape_in_model);
+    if (!s) return s;
+    const bool same_frame = mo.getTransform().matrix() == frame_tf.matrix();
+    const Pose to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
+    const detail::QueryVolume volume =
+        detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance);
+    const TriangleMesh* compact = options.cache ? options.cache->impl().find(group_geometries[j]) : nullptr;
+    if (compact) {
+      // The core's midphase on the cached hierarchy, in the model frame,
+      // then mapped like the in-place walk (keys are set below for all).
+      const MeshInstance instance{compact, Pose::identity()};
+      s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.gathered);
+      if (!s) return s;
+      const bool identity = to_frame.isIdentity();
+      for (CandidateTriangle c : sc.gathered) {
+        if (!identity)
+          for (Vec3& v : c.vertices) v = to_frame.apply(v);
+        c.mesh = static_cast<std::uint32_t>(j);
+        sc.candidates.push_back(c);
+      }
+    } else {
+      s = detail::gatherModel(mesh, volume, to_frame, static_cast<std::uint32_t>(j), sc.stack, sc.candidates);
+      if (!s) return s;
+    }
+  }
+  s = assignPositionKeys(sc.candidates.data(), sc.candidates.size(), sc.query);
+  if (!s) return s;
+  s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), options.settings,
+                                sc.query, sc.contacts);
+  if (!s) return s;
+  if (sc.contacts.empty() && !sc.candidates.empty()) {
+    Contact through;
+    if (detail::throughContact(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), &request, through))
+      sc.contacts.push_back(through);
+  }
+  detail::convertContacts(sc.contacts, frame, true, group_geometries.data(), shape.geometry,
+                          request.num_max_contacts, sc.order, sc.out);
+  // out[k] is sc.contacts[sc.order[k]] (convertContacts): its mesh index
+  // names the object (several objects may share one geometry).
+  for (std::size_t k = 0; k < sc.out.size(); ++k)
+    contacts.push_back({group_meshes[sc.contacts[sc.order[k]].mesh], shape_object, sc.out[k]});
+  return Status::ok();
+}
+
+Status BroadphaseCollector::finish() {
+  Impl& impl = *impl_;
+  impl.contacts.clear();
+  if (impl.request.num_max_contacts == 0)
+    return {ErrorCode::kInvalidSettings, "request.num_max_contacts is 0 (no contact could be returned)"};
+  const double cd = impl.options.settings.contact_distance;
+  if (!std::isfinite(cd) || cd < 0.0)
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + std::to_string(cd)};
+  // Group the mesh-vs-shape pairs by shape, each group in arrival order.
+  std::vector<Impl::Pair>& pairs = impl.pairs;
+  std::stable_sort(pairs.begin(), pairs.end(), [](const Impl::Pair& x, const Impl::Pair& y) {
+    if (x.grouped != y.grouped) return x.grouped;
+    if (x.grouped && x.a != y.a) return std::less<const ::fcl::CollisionObjectd*>()(x.a, y.a);
+    return x.seq < y.seq;
+  });
+  impl.jobs.clear();
+  for (std::uint32_t i = 0; i < pairs.size();) {
+    std::uint32_t end = i + 1;
+    if (pairs[i].grouped)
+      while (end < pairs.size() && pairs[end].grouped && pairs[end].a == pairs[i].a) ++end;
+    impl.jobs.push_back({pairs[i].seq, i, end, pairs[i].grouped});
+    i = end;
+  }
+  // Shapes in the order the manager first reported them (not by address).
+  std::sort(impl.jobs.begin(), impl.jobs.end(),
+            [](const Impl::Job& x, const Impl::Job& y) { return x.first_seq < y.first_seq; });
+  Status first_error;
+  for (const Impl::Job& job : impl.jobs) {
+    Status s = job.grouped ? impl.runGroup(job) : impl.runForwarded(pairs[job.begin]);
+    if (!s && first_error.isOk()) first_error = std::move(s);
+  }
+  return first_error;
+}
+
+Status BroadphaseCollector::finish(::fcl::CollisionResultd& result) {
+  Status s = finish();
+  for (const ObjectContact& c : impl_->contacts) result.addContact(c.contact);
+  return s;
+}
+
+const std::vector<ObjectContact>& BroadphaseCollector::contacts() const { return impl_->contacts; }
+
+void BroadphaseCollector::clear() {
+  impl_->pairs.clear();
+  impl_->contacts.clear();
+  impl_->next_seq = 0;
+}
+
+}  // namespace meshcontact::fcl

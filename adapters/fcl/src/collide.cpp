@@ -1,0 +1,309 @@
+// The drop-in collide(): FCL's signature, meshcontact's pipeline on the
+// model's own BVH for mesh-vs-shape pairs, fcl::collide for the rest.
+#include "internal.h"
+
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/detail/gjk_solver_libccd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+namespace meshcontact::fcl {
+
+Scratch::Scratch() : impl_(std::make_unique<Impl>()) {}
+Scratch::~Scratch() = default;
+Scratch::Scratch(Scratch&&) noexcept = default;
+Scratch& Scratch::operator=(Scratch&&) noexcept = default;
+
+namespace detail {
+
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out) {
+  out.rotation = tf.linear();
+  out.translation = tf.translation();
+  if (!out.rotation.allFinite() || !out.translation.allFinite())
+    return {ErrorCode::kInvalidPose, std::string(what) + ": transform has a non-finite entry"};
+  const double err = (out.rotation.transpose() * out.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
+  if (!(err <= 1e-6) || !(out.rotation.determinant() > 0.0))
+    return {ErrorCode::kInvalidPose, std::string(what) +
+                                         ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
+                                         std::to_string(err) + ")"};
+  return Status::ok();
+}
+
+Pose relativePose(const Pose& mesh, const Pose& shape) {
+  Pose p = mesh.inverse() * shape;
+  const double err = (p.rotation.transpose() * p.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
+  if (err > 1e-12) p.rotation = Eigen::Quaterniond(p.rotation).normalized().toRotationMatrix();
+  return p;
+}
+
+Status checkPair(const MeshDesc& mesh, const ::fcl::CollisionObjectd& mesh_object,
+                 const ::fcl::CollisionObjectd& shape_object, const char* mesh_name, const char* shape_name,
+                 Pose& mesh_pose, Pose& shape_in_model) {
+  Status s = checkModel(mesh, mesh_name);
+  if (!s) return s;
+  Pose shape_pose;
+  s = poseFromTransform(mesh_object.getTransform(), mesh_name, mesh_pose);
+  if (!s) return s;
+  s = poseFromTransform(shape_object.getTransform(), shape_name, shape_pose);
+  if (!s) return s;
+  shape_in_model = relativePose(mesh_pose, shape_pose);
+  return Status::ok();
+}
+
+void convertContacts(const std::vector<Contact>& contacts, const Pose& to_world, bool mesh_first,
+                     const ::fcl::CollisionGeometryd* const* mesh_geometries, const ::fcl::CollisionGeometryd* shape,
+                     std::size_t room, std::vector<std::uint32_t>& order, std::vector<::fcl::Contactd>& out) {
+  out.clear();
+  const std::size_t n = contacts.size();
+  order.resize(n);
+  std::iota(order.begin(), order.end(), 0u);
+  if (n > room) {
+    // The deepest `room` contacts, ties to the earlier one, back in order.
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(room), order.end(),
+                      [&](std::uint32_t a, std::uint32_t b) {
+                        if (contacts[a].depth != contacts[b].depth) return contacts[a].depth > contacts[b].depth;
+                        return a < b;
+                      });
+    order.resize(room);
+    std::sort(order.begin(), order.end());
+  }
+  const bool identity = to_world.isIdentity();
+  for (const std::uint32_t i : order) {
+    const Contact& c = contacts[i];
+    const ::fcl::CollisionGeometryd* mesh = mesh_geometries[c.mesh];
+    const int triangle = static_cast<int>(c.triangle);
+    const Vec3 normal = identity ? c.normal : Vec3(to_world.rotation * c.normal);
+    const Vec3 point = identity ? c.point : to_world.apply(c.point);
+    if (mesh_first)
+      out.emplace_back(mesh, shape, triangle, ::fcl::Contactd::NONE, point, normal, c.depth);
+    else
+      out.emplace_back(shape, mesh, ::fcl::Contactd::NONE, triangle, point, Vec3(-normal), c.depth);
+  }
+}
+
+bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
+                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out) {
+  bool found = false;
+  // FCL's own tolerance decides touching pairs; this band only skips
+  // triangles whose plane the shape clearly does not reach.
+  const double band = 1e-6 * shape.size;
+  for (std::size_t i = 0; i < count; ++i) {
+    const CandidateTriangle& c = candidates[i];
+    const Vec3& a = c.vertices[0];
+    const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
+    if (n.isZero()) continue;
+    const Vec3 deepest = supportPoint(shape, pose, -n);
+    const double depth = n.dot(a - deepest);  // how far the shape must move along n to clear the plane
+    if (depth < -band) continue;              // wholly in front of the plane: the pipeline had it
+    if (n.dot(supportPoint(shape, pose, n) - a) < -band) continue;  // wholly behind: no overlap
+    if (found && !(depth > out.depth || (depth == out.depth && c.triangle < out.triangle))) continue;
+    if (confirm && !fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm)) continue;
+    found = true;
+    out.point = deepest;
+    out.normal = n;
+    out.depth = std::max(depth, 0.0);
+    out.mesh = c.mesh;
+    out.triangle = c.triangle;
+    out.feature = Feature::face();
+  }
+  return found;
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::MeshDesc;
+using detail::ShapeDesc;
+
+const char* nodeTypeName(::fcl::NODE_TYPE t) {
+  switch (t) {
+    case ::fcl::BV_UNKNOWN: return "BV_UNKNOWN";
+    case ::fcl::BV_AABB: return "BV_AABB";
+    case ::fcl::BV_OBB: return "BV_OBB";
+    case ::fcl::BV_RSS: return "BV_RSS";
+    case ::fcl::BV_kIOS: return "BV_kIOS";
+    case ::fcl::BV_OBBRSS: return "BV_OBBRSS";
+    case ::fcl::BV_KDOP16: return "BV_KDOP16";
+    case ::fcl::BV_KDOP18: return "BV_KDOP18";
+    case ::fcl::BV_KDOP24: return "BV_KDOP24";
+    case ::fcl::GEOM_BOX: return "GEOM_BOX";
+    case ::fcl::GEOM_SPHERE: return "GEOM_SPHERE";
+    case ::fcl::GEOM_ELLIPSOID: return "GEOM_ELLIPSOID";
+    case ::fcl::GEOM_CAPSULE: return "GEOM_CAPSULE";
+    case ::fcl::GEOM_CONE: return "GEOM_CONE";
+    case ::fcl::GEOM_CYLINDER: return "GEOM_CYLINDER";
+    case ::fcl::GEOM_CONVEX: return "GEOM_CONVEX";
+    case ::fcl::GEOM_PLANE: return "GEOM_PLANE";
+    case ::fcl::GEOM_HALFSPACE: return "GEOM_HALFSPACE";
+    case ::fcl::GEOM_TRIANGLE: return "GEOM_TRIANGLE";
+    case ::fcl::GEOM_OCTREE: return "GEOM_OCTREE";
+    default: return "NODE_TYPE?";
+  }
+}
+
+// A BVHModel of any BV FCL knows must be finished before FCL touches it
+// (FCL reads its null node array otherwise).
+Status checkAnyModel(const ::fcl::CollisionGeometryd* g, const char* what) {
+  MeshDesc mesh;
+  if (detail::describeMesh(g, mesh)) return detail::checkModel(mesh, what);
+  if (g->getObjectType() != ::fcl::OT_BVH) return Status::ok();
+  auto check = [what](const auto& m) -> Status {
+    if (m.build_state != ::fcl::BVH_BUILD_STATE_PROCESSED && m.build_state != ::fcl::BVH_BUILD_STATE_UPDATED)
+      return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel is not finished (endModel() not called)"};
+    return Status::ok();
+  };
+  switch (g->getNodeType()) {
+    case ::fcl::BV_KDOP16: return check(static_cast<const ::fcl::BVHModel<::fcl::KDOPd<16>>&>(*g));
+    case ::fcl::BV_KDOP18: return check(static_cast<const ::fcl::BVHModel<::fcl::KDOPd<18>>&>(*g));
+    case ::fcl::BV_KDOP24: return check(static_cast<const ::fcl::BVHModel<::fcl::KDOPd<24>>&>(*g));
+    default: return Status::ok();
+  }
+}
+
+}  // namespace
+
+// fcl::collide prints to stderr and returns 0 for pairs it cannot handle,
+// and reads a null node array for an unfinished model.
+Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
+               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report) {
+  report.route = Report::Route::kForwarded;
+  const ::fcl::CollisionGeometryd* g1 = o1->collisionGeometry().get();
+  const ::fcl::CollisionGeometryd* g2 = o2->collisionGeometry().get();
+  Status s = checkAnyModel(g1, "o1");
+  if (!s) return s;
+  s = checkAnyModel(g2, "o2");
+  if (!s) return s;
+  if (!o1->getTransform().matrix().allFinite() || !o2->getTransform().matrix().allFinite())
+    return {ErrorCode::kInvalidPose, "a transform has a non-finite entry"};
+  ::fcl::NODE_TYPE t1 = g1->getNodeType(), t2 = g2->getNodeType();
+  // fcl::collide looks (BVH, shape) pairs up with the BVH first.
+  if (g1->getObjectType() == ::fcl::OT_GEOM && g2->getObjectType() == ::fcl::OT_BVH) std::swap(t1, t2);
+  const auto& table = ::fcl::getCollisionFunctionLookTable<::fcl::detail::GJKSolver_libccd<double>>();
+  if (t1 < 0 || t2 < 0 || t1 >= ::fcl::NODE_COUNT || t2 >= ::fcl::NODE_COUNT || !table.collision_matrix[t1][t2])
+    return {ErrorCode::kInvalidShape, std::string("FCL has no collision function for ") + nodeTypeName(t1) +
+                                          " vs " + nodeTypeName(t2)};
+  const std::size_t before = result.numContacts();
+  ::fcl::collide(o1, o2, request, result);
+  report.added = result.numContacts() - before;
+  return Status::ok();
+}
+
+Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
+               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, const Options& options,
+               Scratch& scratch, Report* report) {
+  Report local_report;
+  Report& rep = report ? *report : local_report;
+  rep = Report();
+  if (o1 == nullptr || o2 == nullptr) return {ErrorCode::kInvalidShape, "a CollisionObject is null"};
+  const ::fcl::CollisionGeometryd* g1 = o1->collisionGeometry().get();
+  const ::fcl::CollisionGeometryd* g2 = o2->collisionGeometry().get();
+  if (g1 == nullptr || g2 == nullptr) return {ErrorCode::kInvalidShape, "a CollisionObject has no geometry"};
+  if (request.num_max_contacts == 0)
+    return {ErrorCode::kInvalidSettings, "request.num_max_contacts is 0 (no contact could be returned)"};
+  const double cd = options.settings.contact_distance;
+  if (!std::isfinite(cd) || cd < 0.0)
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + std::to_string(cd)};
+
+  MeshDesc mesh;
+  ShapeDesc shape;
+  bool mesh_first = true;
+  if (detail::describeMesh(g1, mesh) && detail::describeShape(g2, shape)) {
+    mesh_first = true;
+  } else if (detail::describeShape(g1, shape) && detail::describeMesh(g2, mesh)) {
+    mesh_first = false;
+  } else {
+    return detail::forward(o1, o2, request, result, rep);
+  }
+  // Cost sources are FCL's own output: let FCL compute them.
+  if (request.enable_cost) return detail::forward(o1, o2, request, result, rep);
+
+  const ::fcl::CollisionObjectd& mesh_object = mesh_first ? *o1 : *o2;
+  const ::fcl::CollisionObjectd& shape_object = mesh_first ? *o2 : *o1;
+  Pose mesh_pose, shape_in_model;
+  Status s = detail::checkPair(mesh, mesh_object, shape_object, mesh_first ? "o1" : "o2", mesh_first ? "o2" : "o1",
+                               mesh_pose, shape_in_model);
+  if (!s) return s;
+  const std::size_t have = result.numContacts();
+  if (have >= request.num_max_contacts) return Status::ok();  // as fcl::collide: already satisfied
+
+  Scratch::Impl& sc = scratch.impl();
+  sc.candidates.clear();
+  const detail::QueryVolume volume = detail::makeQueryVolume(shape, shape_in_model, cd);
+  const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh.geometry) : nullptr;
+  const bool keyed = compact != nullptr;
+  if (compact) {
+    // The compact copy of the hierarchy: the core's own midphase (which also
+    // sets the keys), on the query volume's bounds.
+    const MeshInstance instance{compact, Pose::identity()};
+    s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
+  } else {
+    s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates);
+  }
+  if (!s) return s;
+  const std::size_t room = request.num_max_contacts - have;
+  rep.candidates = sc.candidates.size();
+  if (!request.enable_contact && room == 1 && options.settings.trace == nullptr) {
+    // Collision checking (a boolean request wanting one contact): stop at
+    // the first triangle in contact. One candidate at a time gives a contact
+    // exactly when the whole query would give some (the filter never voids
+    // the first patch it processes), so the answer is the same.
+    s = detail::collideCandidates(shape, shape_in_model, nullptr, 0, options.settings, sc.query, sc.contacts);
+    if (!s) return s;  // the shape, pose and settings are checked even with no triangle near
+    for (const CandidateTriangle& c : sc.candidates) {
+      s = detail::collideCandidates(shape, shape_in_model, &c, 1, options.settings, sc.query, sc.contacts);
+      if (!s) return s;
+      if (!sc.contacts.empty()) break;
+    }
+  } else {
+    if (!keyed) {
+      s = assignPositionKeys(sc.candidates.data(), sc.candidates.size(), sc.query);
+      if (!s) return s;
+    }
+    s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), options.settings,
+                                  sc.query, sc.contacts);
+    if (!s) return s;
+  }
+  rep.contacts = sc.contacts.size();
+  if (sc.contacts.empty() && !sc.candidates.empty()) {
+    Contact through;
+    if (detail::throughContact(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), &request, through)) {
+      sc.contacts.push_back(through);
+      rep.through_contacts = 1;
+    }
+  }
+
+  const ::fcl::CollisionGeometryd* mesh_geometry = mesh.geometry;
+  detail::convertContacts(sc.contacts, mesh_pose, mesh_first, &mesh_geometry, shape.geometry, room, sc.order, sc.out);
+  for (const ::fcl::Contactd& c : sc.out) result.addContact(c);
+  rep.added = sc.out.size();
+  return Status::ok();
+}
+
+Scratch& detail::threadScratch() {
+  thread_local Scratch scratch;
+  return scratch;
+}
+
+namespace {
+
+Status& threadStatus() {
+  thread_local Status status;
+  return status;
+}
+
+}  // namespace
+
+std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
+                    const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result) {
+  static const Options kDefaults;
+  threadStatus() = collide(o1, o2, request, result, kDefaults, detail::threadScratch());
+  return result.numContacts();
+}
+
+const Status& lastStatus() { return threadStatus(); }
+
+}  // namespace meshcontact::fcl

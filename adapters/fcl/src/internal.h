@@ -1,0 +1,256 @@
+#pragma once
+// Private parts of meshcontact::fcl: the shape dispatch (FCL shape -> core
+// query), the traversal of an FCL BVHModel's own nodes, and the conversions.
+// Inside namespace meshcontact, FCL is always spelled ::fcl.
+
+#include "meshcontact/fcl.h"
+
+#include <meshcontact/contact.h>
+#include <meshcontact/convex.h>
+#include <meshcontact/filter.h>
+#include <meshcontact/geometry.h>
+#include <meshcontact/query.h>
+#include <meshcontact/shapes.h>
+
+#include <fcl/geometry/bvh/BVH_model.h>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
+#include <fcl/geometry/shape/cone.h>
+#include <fcl/geometry/shape/convex.h>
+#include <fcl/geometry/shape/cylinder.h>
+#include <fcl/geometry/shape/ellipsoid.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/math/bv/AABB.h>
+#include <fcl/math/bv/OBB.h>
+#include <fcl/math/bv/OBBRSS.h>
+#include <fcl/math/bv/RSS.h>
+#include <fcl/math/bv/kIOS.h>
+
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+namespace meshcontact::fcl::detail {
+
+// ---------------------------------------------------------------------------
+// Shapes.
+
+enum class ShapeKind : std::uint8_t { kSphere, kCapsule, kBox, kCylinder, kCone, kEllipsoid, kConvex };
+const char* toString(ShapeKind kind);
+
+/// FCL's Cone: base disk of `radius` at z = -half_length, apex at
+/// z = +half_length (FCL's libccd support function, gjk_libccd-inl.h).
+/// Margin 0 (FCL's exact cone). Supporting face: the base (8 rim points at
+/// multiples of 45 degrees) for directions within the core's 0.05 slope of
+/// -z, a side line (apex, rim point) within that slope of the side's normal,
+/// else the support point.
+class ConeShape final : public SupportShape {
+ public:
+  ConeShape(double radius, double half_length) : radius_(radius), half_length_(half_length) {}
+  Vec3 support(const Vec3& direction) const override;
+  int supportFace(const Vec3& direction, Vec3* out) const override;
+  Status validate() const override;
+
+ private:
+  double radius_, half_length_;
+};
+
+/// FCL's Ellipsoid (semi-axes `radii` along local x, y, z), margin 0. Smooth:
+/// one point per triangle (the default supportFace).
+class EllipsoidShape final : public SupportShape {
+ public:
+  explicit EllipsoidShape(const Vec3& radii) : radii_(radii) {}
+  Vec3 support(const Vec3& direction) const override;
+  Status validate() const override;
+
+ private:
+  Vec3 radii_;
+};
+
+/// FCL's Convex, read in place (its vertex array: no copy, no per-query
+/// hull building), margin 0 (FCL's exact polytope): the same support,
+/// supporting face and center as the core's ConvexHull built from those
+/// vertices with margin 0 (a linear scan; the vertices within 0.05 of the
+/// bounding-box diagonal of the extreme one, deepest first; the mean of the
+/// vertices, which is also FCL's interior point). `diameter` is that
+/// diagonal.
+class FclConvexShape final : public SupportShape {
+ public:
+  FclConvexShape(const std::vector<::fcl::Vector3d>& vertices, double diameter)
+      : vertices_(&vertices), diameter_(diameter) {}
+  Vec3 support(const Vec3& direction) const override;
+  int supportFace(const Vec3& direction, Vec3* out) const override;
+  Vec3 center() const override;
+  Status validate() const override;
+
+ private:
+  const std::vector<::fcl::Vector3d>* vertices_;
+  double diameter_;
+};
+
+/// A supported FCL shape, read once per query.
+struct ShapeDesc {
+  ShapeKind kind = ShapeKind::kSphere;
+  const ::fcl::CollisionGeometryd* geometry = nullptr;
+  /// The shape's local bounding box (local frame).
+  Vec3 box_center = Vec3::Zero();
+  Vec3 box_half = Vec3::Zero();
+  /// Length scale: the largest dimension (for relative tolerances).
+  double size = 0.0;
+  // Parameters, per kind.
+  double radius = 0.0;       // sphere, capsule, cylinder, cone
+  double half_length = 0.0;  // capsule, cylinder, cone
+  Vec3 half_extents = Vec3::Zero();  // box; radii of the ellipsoid
+};
+
+/// True when `g` is one of the shapes the pipeline handles; fills `out`.
+/// Dimensions are not validated here (the core's queries do).
+bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out);
+
+/// The core's query for this shape on candidates (query frame), `pose`
+/// placing the shape in the query frame.
+Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
+                         std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                         std::vector<Contact>& contacts);
+
+/// FCL's (sharp) shape's farthest point along unit `direction` (query
+/// frame).
+Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction);
+
+/// FCL's own two-sided shape-triangle overlap test (the solver and
+/// tolerance of `request`), in the query frame: what fcl::collide decides
+/// per triangle.
+bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
+                        const ::fcl::CollisionRequestd& request);
+
+// ---------------------------------------------------------------------------
+// Meshes.
+
+enum class BvKind : std::uint8_t { kAABB, kOBB, kRSS, kkIOS, kOBBRSS };
+
+/// A BVHModel the pipeline can traverse.
+struct MeshDesc {
+  BvKind bv = BvKind::kOBBRSS;
+  const ::fcl::CollisionGeometryd* geometry = nullptr;
+};
+
+/// True when `g` is a BVHModel with one of the supported BVs (the model's
+/// state is checked by checkModel).
+bool describeMesh(const ::fcl::CollisionGeometryd* g, MeshDesc& out);
+/// kMeshNotBuilt unless the model is a finished triangle model.
+Status checkModel(const MeshDesc& mesh, const char* what);
+/// FCL's vertex and triangle arrays of the model.
+const ::fcl::Vector3d* modelVertices(const MeshDesc& mesh);
+const ::fcl::Triangle* modelTriangles(const MeshDesc& mesh);
+int modelVertexCount(const MeshDesc& mesh);
+int modelTriangleCount(const MeshDesc& mesh);
+
+/// The query volume in the model frame: the shape's local box inflated by
+/// the contact distance, as an oriented box and its axis-aligned bounds
+/// (what the core's midphase queries), and a ball: for a sphere the sphere
+/// itself (its candidates are the triangles whose bounding volume reaches
+/// the sphere), otherwise the ball around the bounds.
+struct QueryVolume {
+  Vec3 center;
+  Mat3 axes;  // columns: the box's axes in the model frame
+  Vec3 half;
+  Vec3 lo, hi;  // axis-aligned bounds in the model frame
+  double radius;
+  bool ball_only;
+};
+QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, double contact_distance);
+
+/// Appends to `out` every triangle whose leaf BV overlaps the ball of a
+/// sphere's `volume`, or, for other shapes, whose bounds overlap the
+/// volume's bounds (exactly the core's gatherCandidates selection, so the
+/// core's result is reproduced even where it depends on triangles that do
+/// not touch the shape), with its vertices mapped by `to_query` (bitwise
+/// copies when it is the identity),
+/// mesh index `mesh_index`, keys unset. Degenerate triangles are skipped
+/// (as the core's midphase does: they have no normal). Errors:
+/// kIndexOutOfRange.
+Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out);
+
+// ---------------------------------------------------------------------------
+// Poses and conversions.
+
+/// FCL's transform as a Pose. kInvalidPose for NaN/Inf, or a rotation
+/// farther than 1e-6 from orthonormal (|R^T R - I|, max entry) or with
+/// det <= 0. FCL accepts any matrix, and rotations converted from float
+/// quaternions are off by ~1e-7, hence a looser tolerance than the core's
+/// 1e-9; relativePose() hands the core an orthonormal rotation.
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out);
+/// mesh^-1 * shape: the shape's pose in the model frame, re-orthonormalized
+/// (through a unit quaternion) only when it is off by more than 1e-12, so
+/// that exact rotations keep their bits.
+Pose relativePose(const Pose& mesh, const Pose& shape);
+
+/// The fallback of Report::through_contacts, for a query whose pipeline
+/// gave no contact: among the candidates whose plane the shape crosses,
+/// those that overlap it (by FCL's own two-sided test with `confirm`'s
+/// solver; every candidate when `confirm` is null, for triangles FCL already
+/// reported); writes the contact of the one the shape reaches deepest through
+/// to `out` (query frame: the face normal, the depth that clears the plane,
+/// the shape's deepest point) and returns true, or returns false.
+bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
+                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out);
+
+}  // namespace meshcontact::fcl::detail
+
+namespace meshcontact::fcl {
+
+struct ModelCache::Impl {
+  struct Entry {
+    std::vector<std::uint32_t> indices;
+    TriangleMesh mesh;  // borrows the model's vertices and `indices`
+  };
+  std::unordered_map<const ::fcl::CollisionGeometryd*, std::unique_ptr<Entry>> entries;
+  const TriangleMesh* find(const ::fcl::CollisionGeometryd* model) const {
+    const auto it = entries.find(model);
+    return it == entries.end() ? nullptr : &it->second->mesh;
+  }
+};
+
+struct Scratch::Impl {
+  QueryScratch query;
+  std::vector<CandidateTriangle> candidates;
+  std::vector<int> stack;
+  std::vector<Contact> contacts;
+  std::vector<TrianglePatch> patches;
+  std::vector<CandidateTriangle> gathered;       // postFilter: deduplicated
+  std::vector<TrianglePatch> gathered_patches;  // postFilter: deduplicated
+  std::vector<std::uint32_t> order;
+  std::vector<::fcl::Contactd> out;
+};
+
+namespace detail {
+
+/// The thread_local scratch of the drop-in entry points.
+Scratch& threadScratch();
+
+/// Replaces `out` with `contacts` (query frame) in this adapter's
+/// conventions: `to_world` maps the query frame to the world;
+/// mesh_geometries[c.mesh] is the geometry of contact c's mesh, `shape` the
+/// shape's; the mesh is FCL's o1 when `mesh_first`. At most `room`
+/// contacts: the deepest when they do not all fit (ties: the earlier
+/// contact, i.e. lower mesh / triangle index), kept in their input order.
+void convertContacts(const std::vector<Contact>& contacts, const Pose& to_world, bool mesh_first,
+                     const ::fcl::CollisionGeometryd* const* mesh_geometries, const ::fcl::CollisionGeometryd* shape,
+                     std::size_t room, std::vector<std::uint32_t>& order, std::vector<::fcl::Contactd>& out);
+
+/// The checks and the poses shared by collide() and postFilter(): the
+/// model finished, both transforms valid; the mesh's pose in the world and
+/// the shape's pose in the model frame.
+Status checkPair(const MeshDesc& mesh, const ::fcl::CollisionObjectd& mesh_object,
+                 const ::fcl::CollisionObjectd& shape_object, const char* mesh_name, const char* shape_name,
+                 Pose& mesh_pose, Pose& shape_in_model);
+
+/// collide()'s forwarding: fcl::collide unchanged, after the checks that
+/// keep FCL from crashing or printing to stderr.
+Status forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
+               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report);
+
+}  // namespace detail
+}  // namespace meshcontact::fcl

@@ -1,0 +1,201 @@
+// The midphase on an FCL BVHModel's own hierarchy: its nodes are walked in
+// place (getBV(i), isLeaf(), primitiveId(), leftChild(), rightChild()), so
+// nothing of the model is copied per query (fcl::collide copies an AABB
+// model whole on every call, DESIGN.md §4).
+#include "internal.h"
+
+#include <meshcontact/mesh.h>
+
+#include <algorithm>
+#include <string>
+#include <type_traits>
+
+namespace meshcontact::fcl::detail {
+
+namespace {
+
+static_assert(std::is_standard_layout<::fcl::Triangle>::value && sizeof(::fcl::Triangle) == 3 * sizeof(std::size_t),
+              "fcl::Triangle is read as three size_t");
+
+template <class BV>
+const ::fcl::BVHModel<BV>& model(const MeshDesc& mesh) {
+  return static_cast<const ::fcl::BVHModel<BV>&>(*mesh.geometry);
+}
+
+// Calls f(model) with the model's concrete type.
+template <class F>
+decltype(auto) withModel(const MeshDesc& mesh, F&& f) {
+  switch (mesh.bv) {
+    case BvKind::kAABB: return f(model<::fcl::AABBd>(mesh));
+    case BvKind::kOBB: return f(model<::fcl::OBBd>(mesh));
+    case BvKind::kRSS: return f(model<::fcl::RSSd>(mesh));
+    case BvKind::kkIOS: return f(model<::fcl::kIOSd>(mesh));
+    case BvKind::kOBBRSS: break;
+  }
+  return f(model<::fcl::OBBRSSd>(mesh));
+}
+
+// --- Ball tests: the query ball (centre c, radius R) against a node, exact
+// for the node's shape (Ericson 5.2.5: sphere vs box by clamping). Used for
+// sphere shapes, where the ball is the query volume itself, and as a cheap
+// early rejection for the others.
+
+bool ballOverlapsObb(const ::fcl::OBBd& b, const Vec3& c, double r) {
+  const Vec3 local = b.axis.transpose() * (c - b.To);
+  const Vec3 excess = (local.cwiseAbs() - b.extent).cwiseMax(0.0);
+  return excess.squaredNorm() <= r * r;
+}
+
+bool ballOverlaps(const ::fcl::AABBd& b, const Vec3& c, double r) {
+  const Vec3 excess = (b.min_ - c).cwiseMax(c - b.max_).cwiseMax(0.0);
+  return excess.squaredNorm() <= r * r;
+}
+bool ballOverlaps(const ::fcl::OBBd& b, const Vec3& c, double r) { return ballOverlapsObb(b, c, r); }
+bool ballOverlaps(const ::fcl::RSSd& b, const Vec3& c, double r) {
+  // The rectangle [0, l0] x [0, l1] of frame (axis, To), swept by a ball of b.r.
+  const Vec3 local = b.axis.transpose() * (c - b.To);
+  const Vec3 nearest(std::clamp(local.x(), 0.0, b.l[0]), std::clamp(local.y(), 0.0, b.l[1]), 0.0);
+  const double reach = b.r + r;
+  return (local - nearest).squaredNorm() <= reach * reach;
+}
+bool ballOverlaps(const ::fcl::OBBRSSd& b, const Vec3& c, double r) { return ballOverlapsObb(b.obb, c, r); }
+bool ballOverlaps(const ::fcl::kIOSd& b, const Vec3& c, double r) {
+  // kIOS: the intersection of its spheres and its OBB.
+  for (unsigned int i = 0; i < b.num_spheres; ++i) {
+    const double reach = b.spheres[i].r + r;
+    if ((b.spheres[i].o - c).squaredNorm() > reach * reach) return false;
+  }
+  return ballOverlapsObb(b.obb, c, r);
+}
+
+// --- Non-ball queries select exactly the triangles the core's midphase
+// selects (gatherCandidates): those whose bounds overlap the query's
+// axis-aligned bounds. Inner nodes are tested conservatively against those
+// bounds (the node's own axis-aligned bounds: 3 separating axes, no rotation
+// between two boxes to compute); leaves by the triangle's bounds.
+bool boxBoundsOverlap(const Mat3& axis, const Vec3& center, const Vec3& half, const QueryVolume& q) {
+  const Vec3 extent = axis.cwiseAbs() * half;
+  return ((center - extent).array() <= q.hi.array()).all() && ((center + extent).array() >= q.lo.array()).all();
+}
+bool boundsOverlap(const ::fcl::AABBd& b, const QueryVolume& q) {
+  return (b.min_.array() <= q.hi.array()).all() && (b.max_.array() >= q.lo.array()).all();
+}
+bool boundsOverlap(const ::fcl::OBBd& b, const QueryVolume& q) { return boxBoundsOverlap(b.axis, b.To, b.extent, q); }
+bool boundsOverlap(const ::fcl::RSSd& b, const QueryVolume& q) {
+  // The rectangle [0, l0] x [0, l1] swept by a ball of b.r is inside this box.
+  const Vec3 center = b.To + b.axis * Vec3(0.5 * b.l[0], 0.5 * b.l[1], 0.0);
+  return boxBoundsOverlap(b.axis, center, Vec3(0.5 * b.l[0] + b.r, 0.5 * b.l[1] + b.r, b.r), q);
+}
+bool boundsOverlap(const ::fcl::OBBRSSd& b, const QueryVolume& q) { return boundsOverlap(b.obb, q); }
+bool boundsOverlap(const ::fcl::kIOSd& b, const QueryVolume& q) { return boundsOverlap(b.obb, q); }
+
+template <class BV>
+Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pose& to_query, std::uint32_t mesh_index,
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out) {
+  const bool identity = to_query.isIdentity();
+  stack.clear();
+  stack.push_back(0);
+  while (!stack.empty()) {
+    const int id = stack.back();
+    stack.pop_back();
+    const ::fcl::BVNode<BV>& node = m.getBV(id);
+    if (!ballOverlaps(node.bv, q.center, q.radius)) continue;
+    if (!q.ball_only && !boundsOverlap(node.bv, q)) continue;
+    if (!node.isLeaf()) {
+      // The children are adjacent and large (an OBBRSS node is 256 bytes):
+      // start fetching both while the stack unwinds to them.
+      const char* first = reinterpret_cast<const char*>(&m.getBV(node.leftChild()));
+      for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
+      stack.push_back(node.rightChild());
+      stack.push_back(node.leftChild());
+      continue;
+    }
+    const int t = node.primitiveId();
+    // fcl::Triangle is three size_t (standard layout); its operator[] is
+    // not inline in libfcl, and this loop is hot.
+    const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
+    CandidateTriangle c;
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t v = tri[k];
+      if (v >= static_cast<std::size_t>(m.num_vertices))
+        return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " corner " + std::to_string(k) +
+                                                 " references vertex " + std::to_string(v) + " of a model with " +
+                                                 std::to_string(m.num_vertices) + " vertices"};
+      c.vertices[k] = identity ? Vec3(m.vertices[v]) : to_query.apply(m.vertices[v]);
+    }
+    if (!q.ball_only) {
+      const Vec3 lo = c.vertices[0].cwiseMin(c.vertices[1]).cwiseMin(c.vertices[2]);
+      const Vec3 hi = c.vertices[0].cwiseMax(c.vertices[1]).cwiseMax(c.vertices[2]);
+      if ((lo.array() > q.hi.array()).any() || (hi.array() < q.lo.array()).any()) continue;
+    }
+    if (isDegenerateTriangle(c.vertices[0], c.vertices[1], c.vertices[2])) continue;
+    c.mesh = mesh_index;
+    c.triangle = static_cast<std::uint32_t>(t);
+    out.push_back(c);
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
+bool describeMesh(const ::fcl::CollisionGeometryd* g, MeshDesc& out) {
+  if (g == nullptr || g->getObjectType() != ::fcl::OT_BVH) return false;
+  out.geometry = g;
+  switch (g->getNodeType()) {
+    case ::fcl::BV_AABB: out.bv = BvKind::kAABB; return true;
+    case ::fcl::BV_OBB: out.bv = BvKind::kOBB; return true;
+    case ::fcl::BV_RSS: out.bv = BvKind::kRSS; return true;
+    case ::fcl::BV_kIOS: out.bv = BvKind::kkIOS; return true;
+    case ::fcl::BV_OBBRSS: out.bv = BvKind::kOBBRSS; return true;
+    default: return false;  // k-DOPs: FCL handles them
+  }
+}
+
+Status checkModel(const MeshDesc& mesh, const char* what) {
+  return withModel(mesh, [what](const auto& m) -> Status {
+    const std::string name(what);
+    if (m.build_state != ::fcl::BVH_BUILD_STATE_PROCESSED && m.build_state != ::fcl::BVH_BUILD_STATE_UPDATED)
+      return {ErrorCode::kMeshNotBuilt,
+              name + ": the BVHModel is not finished (build state " + std::to_string(m.build_state) +
+                  "; call endModel() after beginModel()/addSubModel())"};
+    if (m.getModelType() != ::fcl::BVH_MODEL_TRIANGLES)
+      return {ErrorCode::kMeshNotBuilt, name + ": the BVHModel is not a triangle model (a point cloud?)"};
+    if (m.num_tris <= 0 || m.getNumBVs() <= 0 || m.vertices == nullptr || m.tri_indices == nullptr)
+      return {ErrorCode::kMeshNotBuilt, name + ": the BVHModel has no triangles"};
+    return Status::ok();
+  });
+}
+
+const ::fcl::Vector3d* modelVertices(const MeshDesc& mesh) {
+  return withModel(mesh, [](const auto& m) -> const ::fcl::Vector3d* { return m.vertices; });
+}
+const ::fcl::Triangle* modelTriangles(const MeshDesc& mesh) {
+  return withModel(mesh, [](const auto& m) -> const ::fcl::Triangle* { return m.tri_indices; });
+}
+int modelVertexCount(const MeshDesc& mesh) {
+  return withModel(mesh, [](const auto& m) { return m.num_vertices; });
+}
+int modelTriangleCount(const MeshDesc& mesh) {
+  return withModel(mesh, [](const auto& m) { return m.num_tris; });
+}
+
+QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, double contact_distance) {
+  QueryVolume q;
+  q.axes = shape_in_model.rotation;
+  q.center = shape_in_model.apply(shape.box_center);
+  q.half = shape.box_half + Vec3::Constant(contact_distance);
+  const Vec3 extent = q.axes.cwiseAbs() * q.half;
+  q.lo = q.center - extent;
+  q.hi = q.center + extent;
+  q.ball_only = shape.kind == ShapeKind::kSphere;
+  q.radius = q.ball_only ? shape.radius + contact_distance : extent.norm();
+  return q;
+}
+
+Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out) {
+  return withModel(mesh,
+                   [&](const auto& m) { return gatherTyped(m, volume, to_query, mesh_index, stack, out); });
+}
+
+}  // namespace meshcontact::fcl::detail

@@ -1,0 +1,360 @@
+// The shape dispatch: which FCL shapes the pipeline handles, how each maps to
+// the core's query, its support point, and FCL's own per-triangle test.
+#include "internal.h"
+
+#include <fcl/narrowphase/detail/gjk_solver_indep.h>
+#include <fcl/narrowphase/detail/gjk_solver_libccd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace meshcontact::fcl::detail {
+
+const char* toString(ShapeKind kind) {
+  switch (kind) {
+    case ShapeKind::kSphere: return "sphere";
+    case ShapeKind::kCapsule: return "capsule";
+    case ShapeKind::kBox: return "box";
+    case ShapeKind::kCylinder: return "cylinder";
+    case ShapeKind::kCone: return "cone";
+    case ShapeKind::kEllipsoid: return "ellipsoid";
+    case ShapeKind::kConvex: return "convex";
+  }
+  return "?";
+}
+
+namespace {
+
+// About 3 degrees of tilt within which a direction still "faces" a flat part
+// of a shape: the same slope as the core's ConvexHull and CylinderShape
+// (convex.cpp), so FCL's Convex gives what a ConvexHull of its vertices
+// gives.
+constexpr double kFaceSin = 0.05;
+const double kFaceCos = std::sqrt(1.0 - kFaceSin * kFaceSin);
+
+Status checkPositive(double v, const char* what) {
+  if (!std::isfinite(v) || !(v > 0.0) || !inRange(v))
+    return {ErrorCode::kInvalidShape, std::string(what) + " must be finite and > 0, got " + std::to_string(v)};
+  return Status::ok();
+}
+
+}  // namespace
+
+// --- Cone -------------------------------------------------------------------
+
+Vec3 ConeShape::support(const Vec3& d) const {
+  // The apex supports every direction within the cone's half-angle of +z
+  // (sin of the angle between the side and the base plane, as FCL's
+  // supportCone); otherwise a point of the base rim.
+  const double len = d.norm();
+  const double sin_a = radius_ / std::sqrt(radius_ * radius_ + 4.0 * half_length_ * half_length_);
+  if (d.z() > len * sin_a) return Vec3(0.0, 0.0, half_length_);
+  const double rho = std::hypot(d.x(), d.y());
+  if (!(rho > 0.0)) return Vec3(0.0, 0.0, -half_length_);  // straight down: the base centre
+  return Vec3(radius_ * d.x() / rho, radius_ * d.y() / rho, -half_length_);
+}
+
+int ConeShape::supportFace(const Vec3& d, Vec3* out) const {
+  const double len = d.norm();
+  if (-d.z() >= kFaceCos * len) {
+    // The base faces d: its rim at 8 angles (clipped to the triangle later;
+    // the points are exact rim points, as the core's CylinderShape cap).
+    for (int k = 0; k < 8; ++k) {
+      const double a = k * (M_PI / 4.0);
+      out[k] = Vec3(radius_ * std::cos(a), radius_ * std::sin(a), -half_length_);
+    }
+    return 8;
+  }
+  // A side line faces d when d is within 3 deg of the side's normal, whose
+  // z component is sin_a (the normal of the generatrix through the rim
+  // point along d's azimuth).
+  const double rho = std::hypot(d.x(), d.y());
+  const double sin_a = radius_ / std::sqrt(radius_ * radius_ + 4.0 * half_length_ * half_length_);
+  const double cos_a = std::sqrt(1.0 - sin_a * sin_a);
+  if (rho > 0.0) {
+    const double cos_tilt = (rho * cos_a + d.z() * sin_a) / len;
+    if (cos_tilt >= kFaceCos) {
+      out[0] = Vec3(0.0, 0.0, half_length_);
+      out[1] = Vec3(radius_ * d.x() / rho, radius_ * d.y() / rho, -half_length_);
+      return 2;
+    }
+  }
+  out[0] = support(d);
+  return 1;
+}
+
+Status ConeShape::validate() const {
+  Status s = checkPositive(radius_, "cone radius");
+  if (!s) return s;
+  return checkPositive(2.0 * half_length_, "cone length (lz)");
+}
+
+// --- Ellipsoid --------------------------------------------------------------
+
+Vec3 EllipsoidShape::support(const Vec3& d) const {
+  // x = R^2 d / |R d| maximizes d.x on the ellipsoid (x/R)^2 = 1.
+  const Vec3 s = radii_.cwiseProduct(d);
+  const double n = s.norm();
+  if (!(n > 0.0)) return Vec3::Zero();
+  return radii_.cwiseProduct(s) / n;
+}
+
+Status EllipsoidShape::validate() const {
+  for (int k = 0; k < 3; ++k) {
+    Status s = checkPositive(radii_[k], "ellipsoid radius");
+    if (!s) return s;
+  }
+  return Status::ok();
+}
+
+// --- Convex -----------------------------------------------------------------
+
+Vec3 FclConvexShape::support(const Vec3& d) const {
+  const std::vector<::fcl::Vector3d>& v = *vertices_;
+  std::size_t best = 0;
+  double best_h = v[0].dot(d);
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const double h = v[i].dot(d);
+    if (h > best_h) {  // strict: ties go to the first vertex, so equal d gives equal points
+      best_h = h;
+      best = i;
+    }
+  }
+  return v[best];
+}
+
+int FclConvexShape::supportFace(const Vec3& d, Vec3* out) const {
+  const std::vector<::fcl::Vector3d>& v = *vertices_;
+  const Vec3 u = normalizedOr(d, Vec3::UnitZ());
+  double top = -std::numeric_limits<double>::infinity();
+  for (const auto& p : v) top = std::max(top, p.dot(u));
+  const double band = kFaceSin * diameter_;
+  // Deepest first (highest along d), ties by index: insertion into a short
+  // sorted list of at most kMaxFacePoints.
+  double heights[kMaxFacePoints];
+  int n = 0;
+  for (const auto& p : v) {
+    const double h = p.dot(u);
+    if (h < top - band) continue;
+    int pos = n;
+    while (pos > 0 && heights[pos - 1] < h) --pos;
+    if (pos >= kMaxFacePoints) continue;
+    const int last = std::min(n, kMaxFacePoints - 1);
+    for (int k = last; k > pos; --k) {
+      heights[k] = heights[k - 1];
+      out[k] = out[k - 1];
+    }
+    heights[pos] = h;
+    out[pos] = p;
+    n = std::min(n + 1, kMaxFacePoints);
+  }
+  return n;
+}
+
+Vec3 FclConvexShape::center() const {
+  Vec3 sum = Vec3::Zero();
+  for (const auto& p : *vertices_) sum += p;
+  return sum / static_cast<double>(vertices_->size());
+}
+
+Status FclConvexShape::validate() const {
+  const std::vector<::fcl::Vector3d>& v = *vertices_;
+  if (v.size() < 4)
+    return {ErrorCode::kInvalidShape, "convex has " + std::to_string(v.size()) + " vertices (at least 4 needed)"};
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (!v[i].allFinite() || !inRange(v[i].cwiseAbs().maxCoeff()))
+      return {ErrorCode::kInvalidShape, "convex vertex " + std::to_string(i) + " is not finite"};
+  return checkPositive(diameter_, "convex diameter");
+}
+
+// --- Dispatch ---------------------------------------------------------------
+
+bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
+  if (g == nullptr || g->getObjectType() != ::fcl::OT_GEOM) return false;
+  out = ShapeDesc();
+  out.geometry = g;
+  switch (g->getNodeType()) {
+    case ::fcl::GEOM_SPHERE: {
+      const auto& s = static_cast<const ::fcl::Sphered&>(*g);
+      out.kind = ShapeKind::kSphere;
+      out.radius = s.radius;
+      out.box_half = Vec3::Constant(s.radius);
+      out.size = 2.0 * s.radius;
+      return true;
+    }
+    case ::fcl::GEOM_CAPSULE: {
+      const auto& s = static_cast<const ::fcl::Capsuled&>(*g);
+      out.kind = ShapeKind::kCapsule;
+      out.radius = s.radius;
+      out.half_length = 0.5 * s.lz;
+      out.box_half = Vec3(s.radius, s.radius, s.radius + 0.5 * s.lz);
+      out.size = 2.0 * s.radius + s.lz;
+      return true;
+    }
+    case ::fcl::GEOM_BOX: {
+      const auto& s = static_cast<const ::fcl::Boxd&>(*g);
+      out.kind = ShapeKind::kBox;
+      out.half_extents = 0.5 * s.side;
+      out.box_half = out.half_extents;
+      out.size = s.side.maxCoeff();
+      return true;
+    }
+    case ::fcl::GEOM_CYLINDER: {
+      const auto& s = static_cast<const ::fcl::Cylinderd&>(*g);
+      out.kind = ShapeKind::kCylinder;
+      out.radius = s.radius;
+      out.half_length = 0.5 * s.lz;
+      out.box_half = Vec3(s.radius, s.radius, 0.5 * s.lz);
+      out.size = std::max(2.0 * s.radius, s.lz);
+      return true;
+    }
+    case ::fcl::GEOM_CONE: {
+      const auto& s = static_cast<const ::fcl::Coned&>(*g);
+      out.kind = ShapeKind::kCone;
+      out.radius = s.radius;
+      out.half_length = 0.5 * s.lz;
+      out.box_half = Vec3(s.radius, s.radius, 0.5 * s.lz);
+      out.size = std::max(2.0 * s.radius, s.lz);
+      return true;
+    }
+    case ::fcl::GEOM_ELLIPSOID: {
+      const auto& s = static_cast<const ::fcl::Ellipsoidd&>(*g);
+      out.kind = ShapeKind::kEllipsoid;
+      out.half_extents = s.radii;
+      out.box_half = s.radii;
+      out.size = 2.0 * s.radii.maxCoeff();
+      return true;
+    }
+    case ::fcl::GEOM_CONVEX: {
+      const auto& s = static_cast<const ::fcl::Convexd&>(*g);
+      out.kind = ShapeKind::kConvex;
+      // The vertices' bounds (the geometry's aabb_local is only set by
+      // computeLocalAABB(), which the caller may not have run).
+      const auto& v = s.getVertices();
+      if (v.empty()) {
+        out.size = 0.0;
+        return true;
+      }
+      Vec3 lo = v[0], hi = v[0];
+      for (const auto& p : v) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      out.box_center = 0.5 * (lo + hi);
+      out.box_half = 0.5 * (hi - lo);
+      out.size = (hi - lo).norm();
+      return true;
+    }
+    default:
+      return false;
+  }
+}
+
+Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
+                         std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                         std::vector<Contact>& contacts) {
+  switch (shape.kind) {
+    case ShapeKind::kSphere:
+      // FCL's sphere is centred on its frame's origin; the core's sphere
+      // needs no rotation. The pose is still validated (a NaN rotation is an
+      // error, even though a sphere would not use it).
+      return collideSphereCandidates(Sphere{pose.translation, shape.radius}, candidates, count, settings, scratch,
+                                     contacts);
+    case ShapeKind::kCapsule:
+      return collideCapsuleCandidates(Capsule{shape.radius, shape.half_length}, pose, candidates, count, settings,
+                                      scratch, contacts);
+    case ShapeKind::kBox:
+      return collideBoxCandidates(Box{shape.half_extents}, pose, candidates, count, settings, scratch, contacts);
+    case ShapeKind::kCylinder:
+      return collideCylinderCandidates(Cylinder{shape.radius, shape.half_length}, pose, candidates, count, settings,
+                                       scratch, contacts);
+    case ShapeKind::kCone:
+      return collideConvexCandidates(ConeShape(shape.radius, shape.half_length), pose, candidates, count, settings,
+                                     scratch, contacts);
+    case ShapeKind::kEllipsoid:
+      return collideConvexCandidates(EllipsoidShape(shape.half_extents), pose, candidates, count, settings, scratch,
+                                     contacts);
+    case ShapeKind::kConvex: {
+      const auto& convex = static_cast<const ::fcl::Convexd&>(*shape.geometry);
+      return collideConvexCandidates(FclConvexShape(convex.getVertices(), shape.size), pose, candidates, count,
+                                     settings, scratch, contacts);
+    }
+  }
+  return {ErrorCode::kInvalidShape, "unknown shape kind"};
+}
+
+Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction) {
+  const Vec3 d = pose.rotation.transpose() * direction;  // local frame
+  Vec3 local = Vec3::Zero();
+  switch (shape.kind) {
+    case ShapeKind::kSphere: local = shape.radius * d; break;
+    case ShapeKind::kCapsule:
+      local = shape.radius * d + Vec3(0.0, 0.0, d.z() >= 0.0 ? shape.half_length : -shape.half_length);
+      break;
+    case ShapeKind::kBox:
+      for (int k = 0; k < 3; ++k) local[k] = d[k] >= 0.0 ? shape.half_extents[k] : -shape.half_extents[k];
+      break;
+    case ShapeKind::kCylinder: {
+      // FCL's sharp cylinder (the core's CylinderShape is rounded by a margin).
+      const double rho = std::hypot(d.x(), d.y());
+      local = Vec3(rho > 0.0 ? shape.radius * d.x() / rho : 0.0, rho > 0.0 ? shape.radius * d.y() / rho : 0.0,
+                   d.z() >= 0.0 ? shape.half_length : -shape.half_length);
+      break;
+    }
+    case ShapeKind::kCone: local = ConeShape(shape.radius, shape.half_length).support(d); break;
+    case ShapeKind::kEllipsoid: local = EllipsoidShape(shape.half_extents).support(d); break;
+    case ShapeKind::kConvex: {
+      const auto& convex = static_cast<const ::fcl::Convexd&>(*shape.geometry);
+      local = FclConvexShape(convex.getVertices(), shape.size).support(d);
+      break;
+    }
+  }
+  return pose.apply(local);
+}
+
+namespace {
+
+template <class Solver, class Shape>
+bool overlapWith(const Solver& solver, const ::fcl::CollisionGeometryd& g, const ::fcl::Transform3d& tf,
+                 const Vec3& a, const Vec3& b, const Vec3& c) {
+  return solver.shapeTriangleIntersect(static_cast<const Shape&>(g), tf, a, b, c, nullptr, nullptr, nullptr);
+}
+
+template <class Solver>
+bool overlapAny(const Solver& solver, const ShapeDesc& shape, const ::fcl::Transform3d& tf, const Vec3& a,
+                const Vec3& b, const Vec3& c) {
+  const ::fcl::CollisionGeometryd& g = *shape.geometry;
+  switch (shape.kind) {
+    case ShapeKind::kSphere: return overlapWith<Solver, ::fcl::Sphered>(solver, g, tf, a, b, c);
+    case ShapeKind::kCapsule: return overlapWith<Solver, ::fcl::Capsuled>(solver, g, tf, a, b, c);
+    case ShapeKind::kBox: return overlapWith<Solver, ::fcl::Boxd>(solver, g, tf, a, b, c);
+    case ShapeKind::kCylinder: return overlapWith<Solver, ::fcl::Cylinderd>(solver, g, tf, a, b, c);
+    case ShapeKind::kCone: return overlapWith<Solver, ::fcl::Coned>(solver, g, tf, a, b, c);
+    case ShapeKind::kEllipsoid: return overlapWith<Solver, ::fcl::Ellipsoidd>(solver, g, tf, a, b, c);
+    case ShapeKind::kConvex: return overlapWith<Solver, ::fcl::Convexd>(solver, g, tf, a, b, c);
+  }
+  return false;
+}
+
+}  // namespace
+
+bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
+                        const ::fcl::CollisionRequestd& request) {
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.linear() = pose.rotation;
+  tf.translation() = pose.translation;
+  // The solver set up as fcl::collide(CollisionObject...) does.
+  if (request.gjk_solver_type == ::fcl::GST_INDEP) {
+    ::fcl::detail::GJKSolver_indep<double> solver;
+    solver.gjk_tolerance = request.gjk_tolerance;
+    solver.epa_tolerance = request.gjk_tolerance;
+    return overlapAny(solver, shape, tf, a, b, c);
+  }
+  ::fcl::detail::GJKSolver_libccd<double> solver;
+  solver.collision_tolerance = request.gjk_tolerance;
+  return overlapAny(solver, shape, tf, a, b, c);
+}
+
+}  // namespace meshcontact::fcl::detail

@@ -1,0 +1,226 @@
+#pragma once
+// meshcontact::ode — internal-edge-free trimesh contacts for the Open Dynamics
+// Engine (ODE 0.16, double precision). A thin translation layer: the contacts
+// are the core's (meshcontact/query.h, shapes.h, convex.h), converted to
+// ODE's conventions. Three ways to use it:
+//
+// 1. One call (the drop-in): installColliders() replaces ODE's trimesh
+//    colliders for sphere, capsule, box, cylinder and convex geoms through
+//    dSetColliderOverride. Trimesh geoms, near callbacks and contact joints
+//    stay as they are.
+// 2. The lighter mode: attachTriangleFilter(trimesh) keeps ODE's own
+//    colliders, but lets them see only the triangles whose contacts the
+//    voided-features filter keeps (dGeomTriMeshSetCallback).
+// 3. Disjoint meshes (reference §6): makeGroup() makes several trimesh geoms
+//    one surface for the filter (tiles, streamed track pieces), so their
+//    seams give no edge contacts; collideWithGroup() does the same from a
+//    near callback without registration.
+//
+// Conventions of every dContactGeom written here (ODE's own):
+// - pos: world frame, on the shape's surface (its deepest point along the
+//   normal, reference §4a); normal: unit, world frame, pointing into g1 (moving
+//   g1 along it by `depth` separates the pair); depth > 0 when penetrating
+//   (depth < 0 only within a positive Settings::query.contact_distance: ODE's
+//   contact joint clamps it to 0, i.e. a speculative contact).
+// - Collider override: ODE calls the collider as (trimesh, shape); then
+//   g1 = trimesh, g2 = shape, side1 = triangle index in that trimesh's data,
+//   side2 = -1, and the normal points from the shape toward the mesh.
+//   For dCollide(shape, trimesh) ODE itself swaps g1/g2 and side1/side2 and
+//   negates the normal.
+// - The contact budget is `flags & 0xffff`; contact i is written at
+//   (char*)contacts + i * skip. When the filter keeps more contacts than the
+//   budget, the deepest is kept first, then repeatedly the one farthest from
+//   those already kept (ties: deeper, then lower (mesh, triangle)): never an
+//   arbitrary subset, and the same inputs always give the same contacts.
+//
+// Where the triangles come from: the trimesh geom's dTriMeshDataID. ODE does
+// not copy vertex or index arrays and publishes no accessor for them, so:
+// - data built with this header's buildTriMeshData*() wrappers (same
+//   arguments as ODE's dGeomTriMeshDataBuild*) is read from the caller's
+//   arrays in full double precision, with the caller's vertex indices;
+// - any other data is read through ODE's public API (dGeomTriMeshGetTriangle
+//   on a private, unposed geom). ODE's OPCODE backend hands vertices out
+//   rounded to float (its own colliders use the same rounded values), and
+//   vertices are identified by exact position (welded), which is what the
+//   filter needs (reference §6).
+// Each dTriMeshDataID gets one meshcontact::TriangleMesh (its BVH), built on
+// first use and cached. ODE has no change notification, so:
+// - after changing the arrays, call updateTriMeshData() (or
+//   dGeomTriMeshDataUpdate() and then invalidate());
+// - destroy data with destroyTriMeshData() (or call forget() before
+//   dGeomTriMeshDataDestroy()): a new data object may reuse the old address;
+// - the only automatic check is the triangle count: a change rebuilds the
+//   cache (and drops a registration whose arrays no longer match).
+//
+// Poses: the trimesh geom's own pose (dGeomGetPosition/Rotation, including an
+// offset from its body) is honoured: queries run in the trimesh's frame.
+//
+// Thread safety: the colliders may run on several threads at once (each ODE
+// thread needs dAllocateODEDataForThread as usual). Each thread keeps one
+// QueryScratch (and its contact buffers) in thread_local storage, so
+// steady-state queries do not allocate. The cache, groups, convex
+// registrations and settings are behind one mutex, and a cached BVH stays
+// alive while a query uses it, so registering or invalidating while other
+// threads collide is safe. installColliders() is not: ODE's collider table
+// is a plain global, so install before collisions start.
+//
+// Errors: no collider can return an error to ODE. A failed query (a NaN pose,
+// a convex geom that was never registered, ...) produces no contact and is
+// reported: counted in statistics(), its message kept in lastError(), and
+// passed to Settings::on_error when set. Nothing is printed.
+
+#include <meshcontact/contact.h>
+#include <meshcontact/status.h>
+
+#include <ode/ode.h>
+
+#include <cstdint>
+#include <string>
+
+namespace meshcontact::ode {
+
+/// Geom classes the adapter handles (bit mask).
+enum ShapeMask : unsigned {
+  kSphere = 1u << 0,
+  kCapsule = 1u << 1,
+  kBox = 1u << 2,
+  kCylinder = 1u << 3,
+  kConvex = 1u << 4,
+  kAllShapes = kSphere | kCapsule | kBox | kCylinder | kConvex,
+};
+
+/// Called once per failed pair query (see "Errors" above), on the thread
+/// that ran the collision. `trimesh` is null for errors outside a pair.
+using ErrorHandler = void (*)(const Status& status, dGeomID trimesh, dGeomID shape, void* user_data);
+
+struct Settings {
+  /// The core's query options, in the trimesh's frame (ODE geoms have no
+  /// scale, so units are world units). `query.trace` is ignored.
+  /// Defaults: contact_distance 0 (ODE contacts have depth >= 0), the
+  /// voided-features filter, manifold reduction to 4 contacts per manifold.
+  QuerySettings query;
+  /// Which collider pairs installColliders() replaces; the others keep ODE's
+  /// native collider.
+  unsigned shapes = kAllShapes;
+  ErrorHandler on_error = nullptr;
+  void* user_data = nullptr;
+};
+
+/// Replaces ODE's colliders for (dTriMeshClass, X) for every X in
+/// settings.shapes (both argument orders: dSetColliderOverride). Call after
+/// dInitODE2() (which resets the collider table) and before simulating. ODE
+/// cannot read a collider back, so there is no uninstall: dCloseODE() then
+/// dInitODE2() restores ODE's own colliders. Also sets the settings used by
+/// the triangle filter and collideWithGroup. `installed` (optional) receives
+/// the mask actually installed. Errors: kInvalidSettings (bad contact
+/// distance or manifold angle, unknown bits in `shapes`).
+Status installColliders(const Settings& settings = Settings(), unsigned* installed = nullptr);
+
+/// Sets the settings without installing colliders (for the triangle filter
+/// and collideWithGroup alone). Errors as installColliders.
+Status setSettings(const Settings& settings);
+Settings currentSettings();
+
+// --- Trimesh data -----------------------------------------------------------
+
+/// ODE's dGeomTriMeshDataBuildDouble / BuildSingle / BuildSimple, plus a
+/// note of the arrays so that the cache reads them in full precision. Same
+/// arguments, same lifetime rule (the arrays must outlive the data).
+/// Errors (ODE is then not called): kInvalidSettings for a null array, a
+/// negative count, an index count that is not a multiple of 3, or a stride
+/// smaller than one element.
+Status buildTriMeshDataDouble(dTriMeshDataID data, const void* vertices, int vertex_stride, int vertex_count,
+                              const void* indices, int index_count, int tri_stride);
+Status buildTriMeshDataSingle(dTriMeshDataID data, const void* vertices, int vertex_stride, int vertex_count,
+                              const void* indices, int index_count, int tri_stride);
+Status buildTriMeshDataSimple(dTriMeshDataID data, const dReal* vertices, int vertex_count, const dTriIndex* indices,
+                              int index_count);
+
+/// Drops the cached BVH of `data`: it is rebuilt from the current arrays on
+/// next use. Registered arrays stay registered (ODE keeps using them too).
+/// Call after changing the arrays.
+void invalidate(dTriMeshDataID data);
+/// dGeomTriMeshDataUpdate(data) + invalidate(data).
+void updateTriMeshData(dTriMeshDataID data);
+/// Forgets everything about `data` (cached BVH and registered arrays).
+void forget(dTriMeshDataID data);
+/// forget(data), then dGeomTriMeshDataDestroy(data).
+void destroyTriMeshData(dTriMeshDataID data);
+/// Forgets every cached BVH, registered array, group and convex (e.g. after
+/// dCloseODE()).
+void clearAll();
+/// Builds the cached BVH of this trimesh geom's data now (instead of during
+/// the first collision) and reports what the build found.
+Status prepare(dGeomID trimesh);
+
+// --- Convex geoms -------------------------------------------------------------
+
+/// ODE does not publish a convex geom's points: register them (the same
+/// `points` array given to dCreateConvex / dGeomSetConvex, 3 dReals per
+/// point, geom-local frame). The hull is copied. A convex geom that is not
+/// registered gets no contact from the override, and an error is reported.
+/// Errors: kInvalidShape (not a convex geom, or the hull build failed: too
+/// few points, flat, non-finite).
+Status registerConvex(dGeomID convex, const dReal* points, unsigned point_count);
+/// Call before dGeomDestroy(convex).
+void unregisterConvex(dGeomID convex);
+/// dCreateConvex + registerConvex. Returns null (and reports the error
+/// through `status` when non-null) if the points do not make a hull.
+dGeomID createConvex(dSpaceID space, const dReal* planes, unsigned plane_count, const dReal* points,
+                     unsigned point_count, const unsigned* polygons, Status* status = nullptr);
+
+// --- Disjoint meshes (reference §6) ----------------------------------------------
+
+/// Makes these trimesh geoms one surface: whenever the override (or the
+/// triangle filter) handles a shape against any member, it gathers the
+/// triangles of every member whose AABB touches the shape's into one query
+/// and keeps the contacts of the member asked. The members' vertices are
+/// compared by exact position in the frame of the first member: pieces meet
+/// without seams when their shared vertices are bitwise equal there (e.g.
+/// pieces authored in one frame and given the same geom pose).
+/// Errors: kInvalidSettings (fewer than 1 geom, a geom that is not a
+/// trimesh, a geom already in a group, a duplicate).
+Status makeGroup(const dGeomID* trimeshes, int count);
+/// Removes the geom from its group (call before dGeomDestroy).
+void leaveGroup(dGeomID trimesh);
+
+/// From a near callback: collides `shape` with the trimesh geoms as one
+/// surface in one query (no registration). Contacts as for dCollide(shape,
+/// piece): g1 = shape, g2 = the trimesh piece holding the triangle, normal
+/// from the mesh toward the shape (into g1), side1 = -1, side2 = triangle
+/// index. Budget and selection as above. Returns the number written; errors
+/// are reported (see "Errors") and give 0.
+int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts,
+                     int skip);
+
+// --- The lighter mode: ODE's own colliders, filtered triangles -------------------
+
+/// Sets this trimesh geom's per-triangle callback (dGeomTriMeshSetCallback)
+/// to one that accepts only the triangles that produce a contact after the
+/// voided-features filter for the shape being collided (face contacts, and
+/// the edge and vertex contacts that are not voided). ODE's collider then
+/// makes its contacts from those triangles only. Replaces any callback the
+/// geom had. Shapes outside kAllShapes (rays, other trimeshes) see every
+/// triangle. The result for a pair is computed once per pose and reused for
+/// the other triangles of the same collision.
+/// Not useful together with installColliders for the same shapes: the
+/// override ignores trimesh callbacks.
+/// Errors: kInvalidSettings (not a trimesh geom).
+Status attachTriangleFilter(dGeomID trimesh);
+void detachTriangleFilter(dGeomID trimesh);
+
+// --- Diagnostics ------------------------------------------------------------------
+
+struct Statistics {
+  std::uint64_t pair_queries = 0;       // collider / filter / group queries run
+  std::uint64_t contacts_found = 0;     // contacts the core returned for the pair asked
+  std::uint64_t contacts_returned = 0;  // written to ODE (the budget may cut)
+  std::uint64_t mesh_builds = 0;        // BVHs built for the cache
+  std::uint64_t errors = 0;
+};
+Statistics statistics();
+void resetStatistics();
+/// Message of the most recent error ("" if none since the last reset).
+std::string lastError();
+
+}  // namespace meshcontact::ode

@@ -1,0 +1,130 @@
+// The collider override (trimesh vs sphere / capsule / box / cylinder /
+// convex) and collideWithGroup: core contacts converted to dContactGeom.
+#include "adapter.h"
+
+namespace meshcontact::ode {
+namespace {
+
+using detail::Registry;
+using detail::ThreadContext;
+
+dContactGeom* contactAt(dContactGeom* contacts, int i, int skip) {
+  return reinterpret_cast<dContactGeom*>(reinterpret_cast<char*>(contacts) + static_cast<std::ptrdiff_t>(i) * skip);
+}
+
+void setVec(dVector3 out, const Vec3& v) {
+  out[0] = static_cast<dReal>(v.x());
+  out[1] = static_cast<dReal>(v.y());
+  out[2] = static_cast<dReal>(v.z());
+  out[3] = 0;
+}
+
+// Keeps the contacts of instance `own` in place (order kept).
+void keepInstance(std::vector<Contact>& contacts, std::uint32_t own) {
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < contacts.size(); ++i)
+    if (contacts[i].mesh == own) contacts[w++] = contacts[i];
+  contacts.resize(w);
+}
+
+// ODE calls it as (trimesh, shape) for both orders (dSetColliderOverride),
+// and swaps the result itself for dCollide(shape, trimesh).
+int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* contacts, int skip) {
+  const int budget = flags & 0xffff;
+  if (budget <= 0) return 0;
+  Registry& r = Registry::get();
+  r.pair_queries.fetch_add(1, std::memory_order_relaxed);
+  const Settings settings = detail::settingsSnapshot();
+  ThreadContext& ctx = detail::threadContext();
+  std::uint32_t own = 0;
+  Status s = detail::gatherInstances(trimesh, shape, settings.query, ctx, own);
+  if (s) s = detail::shapeInFrame(shape, ctx);
+  if (s) s = detail::runShapeQuery(settings.query, ctx);
+  if (!s) {
+    ctx.held.clear();
+    detail::report(s, trimesh, shape);
+    return 0;
+  }
+  if (own == UINT32_MAX) {  // empty trimesh
+    ctx.held.clear();
+    return 0;
+  }
+  keepInstance(ctx.contacts, own);
+  r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
+  detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
+  const Pose& frame = ctx.frame;
+  int written = 0;
+  for (std::uint32_t i : ctx.chosen) {
+    const Contact& c = ctx.contacts[i];
+    dContactGeom* out = contactAt(contacts, written++, skip);
+    setVec(out->pos, frame.apply(c.point));
+    // The core's normal points from the mesh toward the shape; ODE's points
+    // into g1 = the trimesh.
+    setVec(out->normal, -(frame.rotation * c.normal));
+    out->depth = static_cast<dReal>(c.depth);
+    out->g1 = trimesh;
+    out->g2 = shape;
+    out->side1 = static_cast<int>(c.triangle);
+    out->side2 = -1;
+  }
+  r.contacts_returned.fetch_add(written, std::memory_order_relaxed);
+  ctx.held.clear();  // an invalidated mesh is freed now, not at this thread's next query
+  return written;
+}
+
+}  // namespace
+
+Status installColliders(const Settings& settings, unsigned* installed) {
+  if (installed) *installed = 0;
+  Status s = setSettings(settings);
+  if (!s) return s;
+  static const int kClasses[] = {dSphereClass, dCapsuleClass, dBoxClass, dCylinderClass, dConvexClass};
+  unsigned done = 0;
+  for (int cls : kClasses) {
+    const unsigned bit = detail::shapeBit(cls);
+    if ((settings.shapes & bit) == 0) continue;
+    dSetColliderOverride(dTriMeshClass, cls, &trimeshCollider);
+    done |= bit;
+  }
+  if (installed) *installed = done;
+  return Status::ok();
+}
+
+int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts, int skip) {
+  const int budget = flags & 0xffff;
+  if (budget <= 0) return 0;
+  Registry& r = Registry::get();
+  r.pair_queries.fetch_add(1, std::memory_order_relaxed);
+  const Settings settings = detail::settingsSnapshot();
+  ThreadContext& ctx = detail::threadContext();
+  Status s = detail::gatherInstanceList(trimeshes, count, shape, settings.query, ctx);
+  if (s) s = detail::shapeInFrame(shape, ctx);
+  if (s) s = detail::runShapeQuery(settings.query, ctx);
+  if (!s) {
+    ctx.held.clear();
+    detail::report(s, count > 0 && trimeshes ? trimeshes[0] : nullptr, shape);
+    return 0;
+  }
+  r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
+  detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
+  const Pose& frame = ctx.frame;
+  int written = 0;
+  for (std::uint32_t i : ctx.chosen) {
+    const Contact& c = ctx.contacts[i];
+    dContactGeom* out = contactAt(contacts, written++, skip);
+    setVec(out->pos, frame.apply(c.point));
+    // Order (shape, piece): the normal points into g1 = the shape, i.e. from
+    // the mesh toward the shape, which is the core's direction.
+    setVec(out->normal, frame.rotation * c.normal);
+    out->depth = static_cast<dReal>(c.depth);
+    out->g1 = shape;
+    out->g2 = ctx.instance_geoms[c.mesh];
+    out->side1 = -1;
+    out->side2 = static_cast<int>(c.triangle);
+  }
+  r.contacts_returned.fetch_add(written, std::memory_order_relaxed);
+  ctx.held.clear();
+  return written;
+}
+
+}  // namespace meshcontact::ode

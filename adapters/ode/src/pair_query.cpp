@@ -1,0 +1,234 @@
+// The pair query every entry point runs: ODE geom -> core shape in the
+// trimesh's frame -> core query -> contacts in that frame. The shape-generic
+// part is one switch (runShapeQuery); everything else is the same for all
+// shapes.
+#include "adapter.h"
+
+#include <algorithm>
+#include <string>
+
+namespace meshcontact::ode::detail {
+
+ThreadContext& threadContext() {
+  // One scratch per thread (the core's QueryScratch is per-thread by
+  // contract); it grows to the largest query and is then reused.
+  thread_local ThreadContext context;
+  return context;
+}
+
+unsigned shapeBit(int geom_class) {
+  switch (geom_class) {
+    case dSphereClass: return kSphere;
+    case dCapsuleClass: return kCapsule;
+    case dBoxClass: return kBox;
+    case dCylinderClass: return kCylinder;
+    case dConvexClass: return kConvex;
+    default: return 0;
+  }
+}
+
+Status describeShape(dGeomID shape, ShapeQuery& out) {
+  const int cls = dGeomGetClass(shape);
+  out.hull.reset();
+  out.pose = geomPose(shape);
+  switch (cls) {
+    case dSphereClass:
+      out.kind = ShapeKind::kSphere;
+      out.radius = static_cast<double>(dGeomSphereGetRadius(shape));
+      return Status::ok();
+    case dCapsuleClass: {
+      // ODE's length is the segment's (the cylindrical part), along local z.
+      dReal radius, length;
+      dGeomCapsuleGetParams(shape, &radius, &length);
+      out.kind = ShapeKind::kCapsule;
+      out.radius = static_cast<double>(radius);
+      out.half_length = 0.5 * static_cast<double>(length);
+      return Status::ok();
+    }
+    case dBoxClass: {
+      dVector3 lengths;  // full side lengths
+      dGeomBoxGetLengths(shape, lengths);
+      out.kind = ShapeKind::kBox;
+      out.half_extents = 0.5 * Vec3(lengths[0], lengths[1], lengths[2]);
+      return Status::ok();
+    }
+    case dCylinderClass: {
+      dReal radius, length;  // total length along local z
+      dGeomCylinderGetParams(shape, &radius, &length);
+      out.kind = ShapeKind::kCylinder;
+      out.radius = static_cast<double>(radius);
+      out.half_length = 0.5 * static_cast<double>(length);
+      return Status::ok();
+    }
+    case dConvexClass: {
+      Registry& r = Registry::get();
+      std::lock_guard<std::mutex> lock(r.mutex);
+      auto it = r.hulls.find(shape);
+      if (it == r.hulls.end())
+        return {ErrorCode::kInvalidShape,
+                "convex geom was not registered (ODE does not publish its points: call "
+                "meshcontact::ode::registerConvex or createConvex)"};
+      out.kind = ShapeKind::kConvex;
+      out.hull = it->second;
+      return Status::ok();
+    }
+    default:
+      return {ErrorCode::kInvalidShape, "geom class " + std::to_string(cls) + " is not handled by meshcontact::ode"};
+  }
+}
+
+Status shapeInFrame(dGeomID shape, ThreadContext& ctx) {
+  Status s = describeShape(shape, ctx.shape);
+  if (!s) return s;
+  // Shape pose relative to the trimesh: frame^-1 * world. With an identity
+  // frame (the usual static ground) this is bit-exact.
+  if (!ctx.frame.isIdentity()) ctx.shape.pose = ctx.frame.inverse() * ctx.shape.pose;
+  return Status::ok();
+}
+
+namespace {
+
+bool aabbOverlap(const dReal a[6], const dReal b[6], double margin) {
+  for (int k = 0; k < 3; ++k)
+    if (a[2 * k] > b[2 * k + 1] + margin || b[2 * k] > a[2 * k + 1] + margin) return false;
+  return true;
+}
+
+// Instance pose of a member in the frame `frame`. Bitwise-equal poses give
+// the exact identity so that shared vertices keep their bits (position keys).
+Pose relativePose(const Pose& frame, const Pose& member) {
+  if (member.rotation == frame.rotation && member.translation == frame.translation) return Pose::identity();
+  return frame.inverse() * member;
+}
+
+Status addInstance(dGeomID geom, const Pose& frame, ThreadContext& ctx) {
+  std::shared_ptr<const MeshEntry> entry;
+  Status s = meshFor(geom, entry);
+  if (!s) return s;
+  if (entry->empty) return Status::ok();
+  ctx.instances.push_back({&entry->mesh, relativePose(frame, geomPose(geom))});
+  ctx.instance_geoms.push_back(geom);
+  ctx.held.push_back(std::move(entry));
+  return Status::ok();
+}
+
+void clearInstances(ThreadContext& ctx) {
+  ctx.instances.clear();
+  ctx.instance_geoms.clear();
+  ctx.held.clear();
+}
+
+}  // namespace
+
+Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
+                       std::uint32_t& own) {
+  clearInstances(ctx);
+  std::shared_ptr<const Group> group;
+  {
+    Registry& r = Registry::get();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    auto it = r.groups.find(trimesh);
+    if (it != r.groups.end()) group = it->second;
+  }
+  own = UINT32_MAX;
+  if (!group) {
+    ctx.frame = geomPose(trimesh);
+    Status s = addInstance(trimesh, ctx.frame, ctx);  // same pose: the exact identity
+    if (!s) return s;
+    if (!ctx.instances.empty()) own = 0;
+    return Status::ok();
+  }
+  // The same members, order and frame whichever member is asked, so every
+  // pair (shape, member) sees the same query and the union of their
+  // contacts is the one-surface result.
+  ctx.frame = geomPose(group->members.front());
+  dReal shape_box[6];
+  dGeomGetAABB(shape, shape_box);
+  for (dGeomID m : group->members) {
+    dReal box[6];
+    dGeomGetAABB(m, box);
+    if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
+    Status s = addInstance(m, ctx.frame, ctx);
+    if (!s) return s;
+    if (m == trimesh && !ctx.instances.empty() && ctx.instance_geoms.back() == m)
+      own = static_cast<std::uint32_t>(ctx.instances.size() - 1);
+  }
+  return Status::ok();
+}
+
+Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, const QuerySettings& settings,
+                          ThreadContext& ctx) {
+  clearInstances(ctx);
+  if (trimeshes == nullptr || count < 1) return {ErrorCode::kInvalidSettings, "collideWithGroup: no trimesh geom"};
+  ctx.frame = geomPose(trimeshes[0]);
+  dReal shape_box[6];
+  dGeomGetAABB(shape, shape_box);
+  for (int i = 0; i < count; ++i) {
+    dReal box[6];
+    dGeomGetAABB(trimeshes[i], box);
+    if (!aabbOverlap(shape_box, box, settings.contact_distance)) continue;
+    Status s = addInstance(trimeshes[i], ctx.frame, ctx);
+    if (!s) return {s.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + s.message()};
+  }
+  return Status::ok();
+}
+
+Status runShapeQuery(const QuerySettings& settings, ThreadContext& ctx) {
+  ctx.contacts.clear();
+  if (ctx.instances.empty()) return Status::ok();
+  const MeshInstance* inst = ctx.instances.data();
+  const std::size_t n = ctx.instances.size();
+  const ShapeQuery& q = ctx.shape;
+  switch (q.kind) {
+    case ShapeKind::kSphere:
+      return collideSphere(inst, n, Sphere{q.pose.translation, q.radius}, settings, ctx.scratch, ctx.contacts);
+    case ShapeKind::kCapsule:
+      return collideCapsule(inst, n, Capsule{q.radius, q.half_length}, q.pose, settings, ctx.scratch, ctx.contacts);
+    case ShapeKind::kBox:
+      return collideBox(inst, n, Box{q.half_extents}, q.pose, settings, ctx.scratch, ctx.contacts);
+    case ShapeKind::kCylinder:
+      return collideCylinder(inst, n, Cylinder{q.radius, q.half_length}, q.pose, settings, ctx.scratch,
+                             ctx.contacts);
+    case ShapeKind::kConvex:
+      return collideConvex(inst, n, *q.hull, q.pose, settings, ctx.scratch, ctx.contacts);
+  }
+  return {ErrorCode::kInvalidShape, "unknown shape kind"};
+}
+
+void selectContacts(const std::vector<Contact>& contacts, int budget, std::vector<std::uint32_t>& chosen,
+                    std::vector<double>& min_distance2) {
+  chosen.clear();
+  const auto n = static_cast<std::uint32_t>(contacts.size());
+  if (budget <= 0 || n == 0) return;
+  if (static_cast<std::uint32_t>(budget) >= n) {
+    for (std::uint32_t i = 0; i < n; ++i) chosen.push_back(i);
+    return;
+  }
+  // The deepest contact carries the most of the overlap; each next one is the
+  // farthest from those kept (a greedy farthest-point spread), so the kept
+  // points span the contact region instead of crowding one corner.
+  std::uint32_t first = 0;
+  for (std::uint32_t i = 1; i < n; ++i)
+    if (contacts[i].depth > contacts[first].depth) first = i;
+  chosen.push_back(first);
+  min_distance2.assign(n, 0.0);
+  for (std::uint32_t i = 0; i < n; ++i) min_distance2[i] = (contacts[i].point - contacts[first].point).squaredNorm();
+  min_distance2[first] = -1.0;  // taken
+  while (chosen.size() < static_cast<std::size_t>(budget)) {
+    std::uint32_t best = UINT32_MAX;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      if (min_distance2[i] < 0.0) continue;
+      if (best == UINT32_MAX || min_distance2[i] > min_distance2[best] ||
+          (min_distance2[i] == min_distance2[best] && contacts[i].depth > contacts[best].depth))
+        best = i;
+    }
+    if (best == UINT32_MAX) break;
+    chosen.push_back(best);
+    min_distance2[best] = -1.0;
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (min_distance2[i] >= 0.0)
+        min_distance2[i] = std::min(min_distance2[i], (contacts[i].point - contacts[best].point).squaredNorm());
+  }
+}
+
+}  // namespace meshcontact::ode::detail

@@ -1,0 +1,265 @@
+#pragma once
+// General convex shapes vs triangle meshes: any shape given by a support
+// function (an ellipsoid, a cone, ... in a few lines), a convex hull of
+// points, and the cylinder.
+//
+// Shapes with a margin. Every SupportShape is a core (the convex set that
+// support() describes) swept by a ball of radius margin(): shape = core (+)
+// ball(margin). The built-in shapes keep their outer faces where they are
+// and shrink the core by the margin, so the only difference from the sharp
+// shape is that its edges and corners are rounded with radius margin()
+// (Jolt's "convex radius", van den Bergen's "margin"). The margin is what
+// makes the method of the reference work for these shapes exactly as for
+// the sphere (whose core is its centre and margin its radius): resting and
+// slightly penetrating contact is a *separated* core, so each triangle gets
+// the core's closest point and a well-defined closest feature.
+//
+// Per candidate triangle (see convex.cpp), with K = the core and n the
+// triangle's unit normal:
+//   - One-sided (the sphere's centre rule, reference §4a, applied to K): the
+//     triangle is culled when K is entirely behind its plane, or when K's
+//     point closest to it is behind its plane (K reaches around the
+//     triangle from the back).
+//   - K separated from the triangle (distance d > 0, our GJK distance):
+//     normal = the closest-point direction (unique even when the witness
+//     points are not); depth = margin - d; the feature is the triangle's
+//     support feature along the normal (triangle.h, supportFeature), a face
+//     whenever d equals K's height above the triangle's plane. A face patch
+//     has up to 4 points: K's supporting face along -n (supportFace) clipped
+//     to the triangle, moved out by the margin onto the shape's surface, each
+//     with its own depth; an edge or vertex patch has one point.
+//   - Deep penetration (K itself touches a triangle, i.e. penetration beyond
+//     the margin somewhere): the whole query is redone with K shrunk toward
+//     the shape's center() by 1/2, 1/4, then to the center point itself,
+//     until K is clear of every triangle. Normals and features then come
+//     from the shrunk K (the same closest-feature rule for every triangle,
+//     so the voided-features argument still holds); depths and points come
+//     from the full shape along each normal, and the triangle under the
+//     shape's deepest point (its center in front) owns a face patch with
+//     that point, so the deepest contact carries the true depth. A shape
+//     whose center passed behind a triangle's plane gets no contact from
+//     that triangle, exactly like a sphere whose centre did. The deep path
+//     costs one more pass over the candidates per halving (2-4x a resting
+//     query).
+// Then the voided-features filter (reference §5) and the optional manifold
+// reduction (QuerySettings::reduce_manifold).
+
+#include "meshcontact/contact.h"
+#include "meshcontact/geometry.h"
+#include "meshcontact/query.h"
+#include "meshcontact/shapes.h"
+#include "meshcontact/status.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace meshcontact {
+
+/// A convex shape: a core given by its support function, in its own local
+/// frame, swept by a ball of radius margin() (the "rounded" shape).
+///
+/// Contract (the queries rely on it; they check what can be checked):
+/// - The core is convex and bounded. The shape (core plus margin) has a
+///   non-zero extent (a single point with margin 0 is rejected; a point with
+///   a margin is a ball). Units are the query frame's length units.
+/// - support(d) returns a point of the core that is farthest along d (a
+///   point maximizing dot(p, d)), in the local frame. d is never zero and is
+///   always finite, but is not necessarily unit length. Ties may be broken
+///   any way, but the same d must always give the same point (results must
+///   not depend on call history). A non-finite result is reported as
+///   ErrorCode::kInvalidShape, never turned into a contact.
+/// - margin() is finite and >= 0. A user shape with margin 0 (the default)
+///   is its own core: shallow contact then already needs the deep
+///   penetration path (convex.cpp), which is exact for a ball but shrinks
+///   the core toward center() for other shapes. Give a shape a margin (a
+///   few percent of its size, with the core shrunk by as much) for the
+///   best resting contacts.
+/// - The shape's bounds are derived from six support calls (+-x, +-y, +-z of
+///   the query frame) grown by the margin, so no bounding volume is needed.
+///
+/// Example (an ellipsoid with semi-axes r and a margin m of 5% of its
+/// smallest semi-axis: the core is the ellipsoid r - m, so the shape reaches
+/// exactly r along each axis and is slightly fuller in between, by less than
+/// m; the ellipsoid's own curvature does the rest):
+///   struct Ellipsoid : SupportShape {
+///     Vec3 core;  // r - m on every axis
+///     double m;
+///     Ellipsoid(const Vec3& r) : core(r.array() - 0.05 * r.minCoeff()), m(0.05 * r.minCoeff()) {}
+///     Vec3 support(const Vec3& d) const override {
+///       const Vec3 s = core.cwiseProduct(d);         // the scaled direction
+///       return core.cwiseProduct(s) / s.norm();      // x = C^2 d / |C d|
+///     }
+///     double margin() const override { return m; }
+///   };
+class SupportShape {
+ public:
+  virtual ~SupportShape();
+
+  /// Farthest point of the core along `direction` (local frame, see the contract above).
+  virtual Vec3 support(const Vec3& direction) const = 0;
+
+  /// Radius of the ball that sweeps the core (local = query units), >= 0.
+  virtual double margin() const { return 0.0; }
+
+  /// A point inside the core (local frame), used as the center toward which
+  /// the core shrinks under deep penetration. The default is the mean of the
+  /// six support points along +-x, +-y, +-z (a convex combination of core
+  /// points, so inside the core).
+  virtual Vec3 center() const;
+
+  static constexpr int kMaxFacePoints = 16;
+
+  /// The core's points that are extreme along `direction` up to a small
+  /// tilt: its supporting face, as the vertices of a convex polygon (any
+  /// order), for multi-point contact patches. Writes 1..kMaxFacePoints
+  /// points to `out` (local frame) and returns how many. Points need not be
+  /// exactly extreme: each contact point gets its own depth. The default
+  /// returns the single support point (one contact per triangle: smooth
+  /// shapes need no more).
+  virtual int supportFace(const Vec3& direction, Vec3* out) const {
+    out[0] = support(direction);
+    return 1;
+  }
+
+  /// Extra validity checks run before every query (kInvalidShape when not
+  /// ok). The default accepts; the queries check the support points and the
+  /// margin anyway.
+  virtual Status validate() const { return Status::ok(); }
+
+  /// Farthest point of the whole shape (core plus margin) along `direction`:
+  /// support(d) + margin() * d / |d|. Local frame.
+  Vec3 shapeSupport(const Vec3& direction) const;
+};
+
+/// The margin a built-in shape picks when none is given: this fraction of
+/// its inradius (the cylinder: of min(radius, half_length); the hull: of the
+/// smallest distance from its centroid to a face plane). With 5%, the rounded
+/// rim of a cylinder is at most 0.42 * 5% = 2.1% of min(radius, half_length)
+/// inside the sharp one, and the flat faces are exact.
+constexpr double kDefaultMarginFraction = 0.05;
+
+/// Pass as `margin` to pick kDefaultMarginFraction of the shape's inradius.
+constexpr double kAutoMargin = -1.0;
+
+/// The convex hull of a point set, with rounded edges and corners of radius
+/// margin(). The core is built once, in build(): the hull's inner parallel
+/// body Q (every face plane moved inward by the margin; its vertices through
+/// the dual hull), then one core point per hull vertex, the point of Q
+/// nearest to that vertex. So core (+) ball(margin) never leaves the hull;
+/// where the hull's vertices are simple (three faces meet, as on a box) it
+/// is exactly the hull with edges and corners rounded; elsewhere its faces
+/// lie within a few percent of the margin inside the hull's (3% measured on
+/// random 32-point hulls: a vertex where k faces meet splits into k - 2
+/// vertices of Q, which one point stands for, keeping the support cost at one
+/// dot product per hull vertex). Support is a linear scan over the core's
+/// points (fast up to a few dozen; a 32-point hull is the target case).
+/// Points inside the hull, on its faces or along its edges are allowed and
+/// dropped (they never support anything alone).
+class ConvexHull final : public SupportShape {
+ public:
+  ConvexHull() = default;
+
+  /// Validates and stores the points (local frame), builds the hull and its
+  /// core. `margin`: kAutoMargin (kDefaultMarginFraction of the inradius),
+  /// or a value in [0, 0.5 * inradius] (0 gives a sharp hull whose core is
+  /// the hull itself). Errors, all kInvalidShape, the hull left empty: fewer
+  /// than 4 points, a non-finite coordinate (names the point), two points
+  /// closer than 1e-9 of the point set's diameter (names both), all points
+  /// within 1e-9 of the diameter of one plane (no volume), or a margin out of
+  /// range (names the limit). Tolerances are relative to the diameter, so
+  /// the hull may be built in any unit. Time: O(n^2) in the number of points
+  /// (a few ms for a few hundred); queries never rebuild.
+  Status build(const std::vector<Vec3>& points, double margin = kAutoMargin);
+
+  bool isBuilt() const { return !core_.empty(); }
+  /// The points given to build().
+  const std::vector<Vec3>& points() const { return points_; }
+  /// The core's points (local frame): one per hull vertex.
+  const std::vector<Vec3>& corePoints() const { return core_; }
+  /// Smallest distance from the centroid of the points (center()) to a face
+  /// plane: the scale of the automatic margin.
+  double inradius() const { return inradius_; }
+
+  Vec3 support(const Vec3& direction) const override;
+  double margin() const override { return margin_; }
+  Vec3 center() const override { return centroid_; }
+  /// Core points whose height along `direction` is within sin(~3 deg) of the
+  /// diameter of the extreme one, deepest first, at most kMaxFacePoints.
+  int supportFace(const Vec3& direction, Vec3* out) const override;
+  /// kInvalidShape when build() has not succeeded.
+  Status validate() const override;
+
+ private:
+  std::vector<Vec3> points_;
+  std::vector<Vec3> core_;
+  Vec3 centroid_ = Vec3::Zero();
+  double diameter_ = 0.0;
+  double inradius_ = 0.0;
+  double margin_ = 0.0;
+};
+
+/// The cylinder of shapes.h (axis along local z, from -half_length to
+/// +half_length) as a support shape with a rounded rim: the core is the
+/// cylinder (radius - m, half_length - m), the margin m. Caps and side are
+/// exact; the two rims are rounded with radius m. `margin`: kAutoMargin
+/// (kDefaultMarginFraction of min(radius, half_length)) or a value in
+/// [0, 0.5 * min(radius, half_length)]. Its supporting face is the core's
+/// cap when the axis is within ~3 degrees of the direction (approximated by
+/// the 8 rim points at multiples of 45 degrees: the clipped patch's points
+/// are exact surface points, but up to 7.6% of the radius inside the flat
+/// disk between them), the side's segment when the axis is within ~3
+/// degrees of perpendicular, and a single rim point otherwise.
+class CylinderShape final : public SupportShape {
+ public:
+  explicit CylinderShape(const Cylinder& cylinder, double margin = kAutoMargin);
+  Vec3 support(const Vec3& direction) const override;
+  double margin() const override { return margin_; }
+  Vec3 center() const override { return Vec3::Zero(); }
+  int supportFace(const Vec3& direction, Vec3* out) const override;
+  /// kInvalidShape unless radius and half_length are finite and > 0 and the
+  /// margin is in range.
+  Status validate() const override;
+  const Cylinder& cylinder() const { return cylinder_; }
+
+ private:
+  Cylinder cylinder_;
+  double margin_ = 0.0;
+  double core_radius_ = 0.0;
+  double core_half_length_ = 0.0;
+  bool margin_in_range_ = true;
+};
+
+/// Stage 2 for a support shape placed in the query frame by `pose`
+/// (x_query = pose.apply(x_local)): per-triangle patches, the filter, the
+/// manifold reduction. Replaces `contacts` (query frame, sorted by (mesh,
+/// triangle) before the reduction); the result does not depend on the order
+/// of `candidates`. Contact points lie on the rounded shape's surface.
+/// Errors: kInvalidShape (validate() failed, a support point or center is
+/// not finite, the margin is negative or not finite, or the shape has no
+/// extent), kInvalidPose, kInvalidSettings (contact distance, manifold
+/// angle).
+Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
+                               std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                               std::vector<Contact>& contacts);
+
+/// The whole pipeline against one mesh (query frame = mesh frame).
+Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,
+                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+
+/// The whole pipeline against several meshes as one surface (reference §6).
+Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,
+                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+
+/// Cylinder queries: collideConvex with CylinderShape(cylinder) (automatic
+/// margin). Errors as above; kInvalidShape for a radius or half_length that
+/// is not finite and > 0 (a zero-extent cylinder is a disk or a segment: use
+/// another shape).
+Status collideCylinderCandidates(const Cylinder& cylinder, const Pose& pose, const CandidateTriangle* candidates,
+                                 std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                                 std::vector<Contact>& contacts);
+Status collideCylinder(const TriangleMesh& mesh, const Cylinder& cylinder, const Pose& pose,
+                       const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+Status collideCylinder(const MeshInstance* instances, std::size_t count, const Cylinder& cylinder, const Pose& pose,
+                       const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+
+}  // namespace meshcontact

@@ -1,0 +1,70 @@
+#pragma once
+// The pipeline's later stages on their own, for triangles and contacts that
+// come from outside the library (an external BVH such as FCL's, or another
+// library's per-triangle contacts):
+//
+//   external midphase -> CandidateTriangle[] -> assignPositionKeys()
+//                     -> collide*Candidates()            (our narrowphase)
+//   external per-triangle contacts -> TrianglePatch[] -> filterPatches()
+//                                                        (the filter only)
+//
+// filterPatches() runs exactly the voided-features filter of the queries
+// (reference §5: face patches first, delayed edge/vertex patches sorted by
+// distance, unconditional voiding), then the optional manifold reduction.
+
+#include "meshcontact/contact.h"
+#include "meshcontact/geometry.h"
+#include "meshcontact/query.h"
+#include "meshcontact/status.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace meshcontact {
+
+/// Sets every candidate's `keys` to position keys (KeyMode::kVertexPosition):
+/// two corners get the same key iff their query-frame positions are bitwise
+/// equal (-0 == +0). Use it for triangles gathered by another midphase, whose
+/// vertex indices may not identify shared vertices (duplicated vertices,
+/// several meshes). Keys are valid for one query: they are dense ids drawn
+/// from `scratch`, which the next gatherCandidates / assignPositionKeys call
+/// reuses. Errors: kNonFiniteVertex (names the candidate and corner).
+Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch);
+
+/// One externally computed contact patch between the shape and one candidate
+/// triangle, in the query frame (the candidates' frame).
+struct TrianglePatch {
+  /// The triangle feature the patch lies on (e.g. supportFeature() along
+  /// `normal`, or the Voronoi region of a closest point). Face patches are
+  /// kept and void their triangle; edge and vertex patches are delayed.
+  Feature feature;
+  /// Shape-to-triangle distance (negative when penetrating): the delayed
+  /// patches are processed in increasing order of it (reference §5a).
+  double distance = 0.0;
+  /// Unit, from the mesh toward the shape.
+  Vec3 normal = Vec3::UnitZ();
+  /// Number of points, 1..4.
+  int count = 0;
+  Vec3 points[4] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  /// Along `normal`, positive when penetrating.
+  double depths[4] = {0, 0, 0, 0};
+};
+
+/// Runs the voided-features filter on patches[i], which belongs to
+/// candidates[i] (only the candidates' keys, mesh and triangle are read), then
+/// the manifold reduction when settings.reduce_manifold (contacts whose
+/// normals agree within settings.manifold_angle_deg are reduced to at most 4;
+/// `length_scale` is the shape's size, the reference length of its
+/// tolerances). settings.contact_distance is not used: the caller decides
+/// which patches exist. Replaces `contacts` (sorted by (mesh, triangle)
+/// before the reduction); the result does not depend on the order of the
+/// input. settings.trace, when set, gets one entry per patch.
+/// Errors: kInvalidSettings (a patch whose count is not 1..4, whose normal is
+/// not finite and unit within 1e-6, or whose distance, points or depths are
+/// not finite: names the patch; or bad manifold settings; or a length_scale
+/// that is not finite and > 0).
+Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* patches, std::size_t count,
+                     double length_scale, const QuerySettings& settings, QueryScratch& scratch,
+                     std::vector<Contact>& contacts);
+
+}  // namespace meshcontact

@@ -1,0 +1,745 @@
+// Box vs mesh: per triangle, the triangle feature that OWNS the contact (the
+// box's analogue of the sphere's closest feature, reference §4a), then the
+// voided-features filter and the manifold reduction.
+//
+// Per triangle, in the box's frame (box = [-e, e], centre at the origin,
+// triangle v0 v1 v2, unit normal n, edges E_k = v_k+1 - v_k, inward edge
+// normals m_k = n x E_k; the triangle's prism is where m_k.(x - v_k) >= 0):
+//  1. One-sided, the sphere's rule applied to the box's core: the triangle is
+//     culled when the box's centre is behind its plane (to round-off). A box
+//     beside a cliff's wall whose centre is below the ledge is never pushed
+//     up onto the ledge, whatever its corners touch.
+//  2. Separating axes (Ericson §4.4, Gottschalk's OBB test adapted to a
+//     triangle): the box's face normals u_i (first: the cheapest rejection),
+//     n, and the crosses u_i x E_k. An axis separating by more than the
+//     contact distance: no contact. Any separating (or touching) axis: the
+//     box and the triangle are disjoint (step 3); none: they intersect
+//     (steps 4-5). SAT is exact for this test.
+//  3. Apart: the EXACT closest points of the two polytopes, the closest of
+//     the vertex-face, face-vertex and edge-edge pairs (a closest pair of two
+//     disjoint convex polytopes always contains one of these): the box's
+//     corners against the triangle (Ericson §5.1.5, which also tells face /
+//     edge k / vertex k), the triangle's vertices against the box (clamping),
+//     and the box's 12 edges against the triangle's 3 (Ericson §5.1.9; the
+//     triangle's feature is its edge, or an end vertex when the parameter is
+//     clamped). Pruned, exactly: the box's closest point is the clamp of the
+//     triangle's, so a box face x_i = -e_i (+e_i) can hold it only when some
+//     vertex has x_i <= -e_i (>= e_i); the triangle's closest point is inside
+//     edge k only when the box reaches outside that edge's inward plane; a
+//     feature whose height over the plane exceeds the best distance so far
+//     cannot beat it. Ties (to 1e-9 of the box's size) go to the face, then
+//     an edge, then a vertex; a pair along n is a face pair (the box point
+//     lies over the closed triangle). That feature is the patch's, exactly as
+//     the sphere's closest point's (reference §4), and the distance its key.
+//     Face: normal n, the box's face most anti-parallel to n clipped to the
+//     prism, plus the box's closest point; depth = -(height above the plane).
+//     Edge / vertex: normal = normalize(box point - triangle point); one
+//     point, or, when that direction is a box face's normal (a box face
+//     parallel to the triangle's edge or facing its vertex), the triangle
+//     clipped to that face's side planes (a line contact gets 2 points).
+//  4. Intersecting, ownership: s = the box's deepest point below the plane,
+//     the average of the lowest corners when several tie (a box lying flat:
+//     its bottom face's centre). When s projects onto the closed triangle
+//     (to round-off), the triangle owns the contact: a face patch, normal n,
+//     depth = s's depth (the push along n that clears the plane), points
+//     from the incident face clipped to the prism. Tiles of a plane agree on
+//     the owner, whose face contact voids the internal edges near the box's
+//     deepest point. (Closed, not strict: s exactly on an internal edge makes
+//     both neighbours owners, both with the plane's normal, where a strict
+//     test would leave the edge to step 5 on both sides.)
+//  5. Intersecting, not owned: the separating axis of least penetration
+//     among directions with N.n >= 0 (no normal pulls the box through the
+//     triangle's back). Ties and near-ties prefer the triangle normal, then
+//     the box faces, then the edges: a later axis must beat the current one
+//     by 5% of |pen| plus 1e-6 of the box's size (Box2D's reference-face
+//     bias, Gregorius' "Robust Contact Creation"). For n the penetration is
+//     its exact directional depth (the box's deepest point over the
+//     triangle, not the SAT overlap), and when that point lies inside the
+//     prism the bias is 50% (kInteriorFaceBias). Manifold (points on the box,
+//     depths along N):
+//     - N = n: the incident face clipped to the prism, plus the deepest
+//       point over the triangle; a face patch (n is the support feature);
+//     - N = +-u_i: the triangle clipped to the side planes of the box face
+//       facing it (reference face), projected onto it;
+//     - N = edge axis: closest points of the box's supporting edge and the
+//       triangle's supporting edge (or vertex) along N.
+//     For a tilted N the feature and the sort key are NOT the support
+//     feature along N (which near an internal edge names the edge on both
+//     of its triangles, and nothing voids it): they are where the box's lower
+//     envelope is least over the triangle, and that depth (envelopeMinimum),
+//     which orders a plane's triangles so that each such edge is voided by
+//     the deeper neighbour across it.
+//  Points deeper than -contact distance are kept; more than 4:
+//  selectManifoldPoints (deepest, then largest area).
+#include "meshcontact/shapes.h"
+#include "meshcontact/triangle.h"
+
+#include "capsule_segment.h"
+#include "manifold_reduction.h"
+#include "scratch.h"
+#include "validate.h"
+#include "voided_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace meshcontact {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+Status checkBox(const Box& box, const Pose& pose) {
+  const Vec3& e = box.half_extents;
+  if (!detail::inRange(e) || (e.array() < 0.0).any())
+    return {ErrorCode::kInvalidShape,
+            "box half_extents must be finite, >= 0 and <= 1e50, got " + detail::describe(e)};
+  if (!(e.maxCoeff() > 0.0))
+    return {ErrorCode::kInvalidShape, "box has zero extent: all half_extents are 0"};
+  return detail::checkPose(pose, "box pose");
+}
+
+// Axis preference (step 5): a later axis replaces the current one only if its
+// penetration is smaller by this fraction of |current| (plus 1e-6 of the
+// box's size).
+constexpr double kFaceBias = 0.05;
+constexpr double kInteriorFaceBias = 0.5;  // n, when the box is deepest over the face's interior
+
+// Ties between closest pairs of a separated box (face preferred), times the
+// box's size.
+constexpr double kTie = 1e-9;
+// Round-off on lengths, times the query's magnitude (box size + distance from
+// the origin, which bounds the cancellation in moving the triangle to the
+// box's frame): below it an edge or face is parallel to the plane (corners
+// tie in s), a point lies on an edge, a depth ties, a centre is on the plane.
+constexpr double kFlat = 1e-14;
+
+// A SAT axis, with the projections of both shapes on it.
+struct Axis {
+  Vec3 L;                 // u_i or u_i x E_j, not normalized
+  double length;          // |L|
+  double rb, tmin, tmax;  // along L (times |L|): box on [-rb, rb], triangle on [tmin, tmax]
+  int kind;               // 1: box face u_i, 2: edge-edge u_i x E_j
+  int box_axis, edge;
+};
+
+// Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman).
+int clipPolygon(const Vec3* in, int count, const Vec3& plane, double offset, Vec3* out) {
+  int n = 0;
+  for (int i = 0; i < count; ++i) {
+    const Vec3& a = in[i];
+    const Vec3& b = in[(i + 1) % count];
+    const double da = plane.dot(a) + offset, db = plane.dot(b) + offset;
+    if (da >= 0.0) out[n++] = a;
+    if ((da >= 0.0) != (db >= 0.0)) out[n++] = a + (da / (da - db)) * (b - a);
+  }
+  return n;
+}
+
+// Shrinks [lo, hi] to where f0 + t (f1 - f0) >= 0.
+void clipInterval(double f0, double f1, double& lo, double& hi) {
+  if (f0 >= 0.0 && f1 >= 0.0) return;
+  if (f0 < 0.0 && f1 < 0.0) {
+    lo = 1.0, hi = 0.0;
+    return;
+  }
+  const double t = f0 / (f0 - f1);
+  if (f0 < 0.0) lo = std::max(lo, t); else hi = std::min(hi, t);
+}
+
+// The box's deepest point below the triangle's plane among its points over
+// the triangle (box ∩ prism): the exact distance the box must move along n to
+// clear the triangle, and where on the triangle that happens. Depth is
+// linear, so its maximum is at a vertex of box ∩ prism: a box corner inside
+// the prism, a box edge crossing a prism side, or a prism edge (the line
+// v_k + s n) crossing a box face.
+//
+// As a function of the position x in the plane, the box's lowest height over
+// x (its lower envelope) is convex over the box's shadow; this is its minimum
+// over the triangle. `mask` tells where on the triangle the minimum is: bit k
+// when it lies on edge k (m_k.(x - v_k) within round-off of 0). A minimum on
+// the boundary of a triangle that does not hold the envelope's global
+// minimum is not where the surface is deepest: going from it toward the
+// global minimum descends at once into the neighbour across that edge (or
+// around that vertex), whose own minimum is therefore strictly deeper; the
+// filter, meeting triangles deepest first, voids the feature (reference §5a
+// with this depth in place of the sphere's distance). Any minimizer will do
+// when several tie (an edge of the box parallel to the plane).
+struct DeepestOver {
+  double depth = -kInf;  // -infinity when the box is not over the triangle
+  Vec3 where = Vec3::Zero();
+  int mask = 0;
+};
+
+DeepestOver deepestOverTriangle(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, double flat) {
+  Vec3 pts[27];
+  double depth[27];
+  int count = 0;
+  const auto offer = [&](const Vec3& x) {
+    pts[count] = x;
+    depth[count++] = n.dot(v[0] - x);
+  };
+  for (int i = 0; i < 3; ++i) {  // the 4 box edges along u_i (corners are their ends)
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    for (int c = 0; c < 4; ++c) {
+      Vec3 a, b;
+      a[j] = b[j] = (c & 1) ? e[j] : -e[j];
+      a[k] = b[k] = (c & 2) ? e[k] : -e[k];
+      a[i] = -e[i];
+      b[i] = e[i];
+      double lo = 0.0, hi = 1.0;
+      for (int s = 0; s < 3 && lo <= hi; ++s) clipInterval(m[s].dot(a - v[s]), m[s].dot(b - v[s]), lo, hi);
+      if (lo > hi) continue;
+      offer(a + lo * (b - a));
+      offer(a + hi * (b - a));
+    }
+  }
+  for (int k = 0; k < 3; ++k) {  // the prism's edges through the box's faces
+    double lo = -kInf, hi = kInf;
+    bool empty = false;
+    for (int i = 0; i < 3 && !empty; ++i) {
+      if (n[i] == 0.0) {
+        empty = std::abs(v[k][i]) > e[i];
+        continue;
+      }
+      const double s0 = (-e[i] - v[k][i]) / n[i], s1 = (e[i] - v[k][i]) / n[i];
+      lo = std::max(lo, std::min(s0, s1));
+      hi = std::min(hi, std::max(s0, s1));
+      empty = lo > hi;
+    }
+    if (!empty) offer(v[k] + lo * n);  // lowest point of the line inside the box
+  }
+  DeepestOver out;
+  for (int c = 0; c < count; ++c)
+    if (depth[c] > out.depth) out.depth = depth[c], out.where = pts[c];
+  if (count == 0) return out;
+  for (int k = 0; k < 3; ++k)
+    if (m[k].dot(out.where - v[k]) <= flat * m[k].norm()) out.mask |= 1 << k;
+  return out;
+}
+
+// The triangle feature of a boundary mask (bit k: on edge k); face for 0.
+Feature maskFeature(int mask) {
+  switch (mask) {
+    case 1: return Feature::edge(0);
+    case 2: return Feature::edge(1);
+    case 4: return Feature::edge(2);
+    case 3: return Feature::vertex(1);  // edges 0 and 1 meet at v1
+    case 6: return Feature::vertex(2);
+    case 5: return Feature::vertex(0);
+    case 7: return Feature::vertex(0);  // a sliver: any of its vertices
+    default: return Feature::face();
+  }
+}
+
+// Up to 9 points of a manifold under construction (a quad clipped by 3
+// planes, or a triangle by 4, has at most 7 vertices; one more is appended).
+struct Polygon {
+  Vec3 buffer[2][9];
+  double depth[9];
+  Vec3* pts = buffer[0];
+  int count = 0;
+  Vec3* spare() { return pts == buffer[0] ? buffer[1] : buffer[0]; }
+};
+
+// Where the filter should meet a triangle that the box enters without
+// owning s, and which of its features that is. The box's lower envelope phi
+// (its lowest height over each point x of the plane) is convex, and minimal
+// at s. Triangles met in order of their minimum of phi, each tagged with
+// where that minimum lies, void each other like the sphere's (reference §5a
+// with phi in place of the distance): from a minimum on a triangle's edge,
+// the way down toward s enters the neighbour across that edge at once, so
+// that neighbour's minimum is deeper and it is met first, voiding the edge.
+// phi alone ties when a face or an edge of the box is parallel to the plane
+// (a box lying flat), and orders by round-off when it is nearly so; the
+// strictly convex
+//     Phi(x) = phi(x) + eps |x - s|^2   (in-plane distance, eps = 1e-9 / box size)
+// has s as its only minimum, orders such triangles by their distance to s,
+// and changes nothing else by more than 4e-9 of the box's size.
+//
+// phi is linear over each lower face of the box (the shadow of face x_i = -s_i
+// e_i with s_i = sign(n_i)), so Phi's minimum over the triangle is on the
+// boundary of one of the lower faces' parts over the triangle (a smooth
+// minimum inside would be Phi's global one, s): at a vertex of that clipped
+// face, or where Phi is stationary along one of its edges. Returns false when
+// the box is over the triangle only through faces (nearly) perpendicular to
+// the plane.
+bool envelopeMinimum(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, const Vec3& s, double eps,
+                     double flat, double& value, Feature& feature) {
+  const double h0 = n.dot(v[0]);
+  value = kInf;
+  Vec3 best = Vec3::Zero();
+  const auto inPlane = [&](const Vec3& d) { return Vec3(d - d.dot(n) * n); };
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(n[i]) > 1e-12)) continue;  // its shadow has no area
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    const double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};
+    Polygon poly;
+    for (int c = 0; c < 4; ++c) {
+      poly.pts[c][i] = n[i] > 0.0 ? -e[i] : e[i];
+      poly.pts[c][j] = sj[c] * e[j];
+      poly.pts[c][k] = sk[c] * e[k];
+    }
+    poly.count = 4;
+    for (int q = 0; q < 3 && poly.count > 0; ++q) {
+      Vec3* out = poly.spare();
+      poly.count = clipPolygon(poly.pts, poly.count, m[q], -m[q].dot(v[q]), out);
+      poly.pts = out;
+    }
+    for (int c = 0; c < poly.count; ++c) {
+      const Vec3& a = poly.pts[c];
+      const Vec3& b = poly.pts[(c + 1) % poly.count];
+      const double ha = n.dot(a) - h0, dh = n.dot(b) - h0 - ha;
+      const Vec3 wa = inPlane(a - s), dw = inPlane(b - a);
+      const double va = ha + eps * wa.squaredNorm();
+      if (va < value) value = va, best = a;
+      const double dw2 = dw.squaredNorm();
+      if (!(dw2 > 0.0)) continue;
+      const double t = -(dh / (2.0 * eps) + wa.dot(dw)) / dw2;  // d Phi / dt = 0 along a -> b
+      if (!(t > 0.0 && t < 1.0)) continue;
+      const double vt = ha + t * dh + eps * (wa + t * dw).squaredNorm();
+      if (vt < value) value = vt, best = a + t * (b - a);
+    }
+  }
+  if (!(value < kInf)) return false;
+  int mask = 0;
+  for (int q = 0; q < 3; ++q)
+    if (m[q].dot(best - v[q]) <= flat * m[q].norm()) mask |= 1 << q;
+  feature = maskFeature(mask);
+  return true;
+}
+
+// The box face most anti-parallel to n (the incident face) clipped to the
+// triangle's prism; depths are how far below the plane.
+void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, Polygon& poly) {
+  int i = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(n[k]) > std::abs(n[i])) i = k;
+  const int j = (i + 1) % 3, k = (i + 2) % 3;
+  const double xi = n[i] > 0.0 ? -e[i] : e[i];
+  const double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};
+  poly.pts = poly.buffer[0];
+  for (int c = 0; c < 4; ++c) {
+    poly.pts[c][i] = xi;
+    poly.pts[c][j] = sj[c] * e[j];
+    poly.pts[c][k] = sk[c] * e[k];
+  }
+  poly.count = 4;
+  for (int s = 0; s < 3 && poly.count > 0; ++s) {  // inward edge planes of the triangle
+    Vec3* out = poly.spare();
+    poly.count = clipPolygon(poly.pts, poly.count, m[s], -m[s].dot(v[s]), out);
+    poly.pts = out;
+  }
+  for (int c = 0; c < poly.count; ++c) poly.depth[c] = n.dot(v[0] - poly.pts[c]);
+}
+
+// The triangle clipped to the side planes of the box face with outward
+// normal -s u_i (at x_i = -s e_i, s = +-1), projected onto that face; depths
+// are how far inside the face the triangle's points are.
+void referenceFace(const Vec3 v[3], int i, double s, const Vec3& e, Polygon& poly) {
+  poly.pts = poly.buffer[0];
+  for (int c = 0; c < 3; ++c) poly.pts[c] = v[c];
+  poly.count = 3;
+  for (int side = 0; side < 4 && poly.count > 0; ++side) {
+    const int j = (i + 1 + side / 2) % 3;
+    const double sgn = side % 2 == 0 ? -1.0 : 1.0;  // keep sgn * x_j + e_j >= 0
+    Vec3* out = poly.spare();
+    poly.count = clipPolygon(poly.pts, poly.count, sgn * Vec3::Unit(j), e[j], out);
+    poly.pts = out;
+  }
+  for (int c = 0; c < poly.count; ++c) {
+    poly.depth[c] = e[i] + s * poly.pts[c][i];
+    poly.pts[c][i] = -s * e[i];
+  }
+}
+
+// The closest pair of a box and a triangle that do not intersect (step 3).
+struct ClosestPair {
+  Vec3 b, t;  // on the box, on the triangle (box frame)
+  double d = kInf;
+  Feature feature = Feature::vertex(0);
+};
+
+int featureRank(Feature f) { return f.type == FeatureType::kFace ? 2 : (f.type == FeatureType::kEdge ? 1 : 0); }
+
+ClosestPair closestPair(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, double tie) {
+  ClosestPair best;
+  const auto offer = [&](const Vec3& b, const Vec3& t, Feature f) {
+    const double d2 = (b - t).squaredNorm();
+    const double reach = best.d + tie;
+    if (d2 > reach * reach) return;
+    const double d = std::sqrt(d2);
+    if (d < best.d - tie || featureRank(f) > featureRank(best.feature)) best = {b, t, d, f};
+  };
+  // allowed[i][0]: the face x_i = -e_i may hold the closest point; [1]: x_i = +e_i.
+  bool allowed[3][2];
+  for (int i = 0; i < 3; ++i) {
+    allowed[i][0] = std::min({v[0][i], v[1][i], v[2][i]}) <= -e[i];
+    allowed[i][1] = std::max({v[0][i], v[1][i], v[2][i]}) >= e[i];
+  }
+  // A point's height over the plane bounds its distance to the triangle from
+  // below: features that cannot beat the best pair so far are skipped.
+  const double h0 = n.dot(v[0]);
+  const auto height = [&](const Vec3& x) { return n.dot(x) - h0; };
+  const auto hopeless = [&](double bound) { return bound > best.d + tie; };
+  for (int k = 0; k < 3; ++k)  // face-vertex: the triangle's vertices
+    offer(v[k].cwiseMax(-e).cwiseMin(e), v[k], Feature::vertex(k));
+  for (int c = 0; c < 8; ++c) {  // vertex-face: the box's corners
+    const int s[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
+    if (!allowed[0][s[0]] || !allowed[1][s[1]] || !allowed[2][s[2]]) continue;
+    const Vec3 corner(s[0] ? e[0] : -e[0], s[1] ? e[1] : -e[1], s[2] ? e[2] : -e[2]);
+    const double h = height(corner);
+    if (hopeless(std::abs(h))) continue;
+    const ClosestPoint cp = closestPointOnTriangle(corner, v[0], v[1], v[2]);
+    // A corner below the plane over the triangle would give a normal into
+    // the triangle's back (the box reaching under it from the side): not a
+    // face pair for this one-sided triangle; its edges still count below.
+    if (cp.feature.type == FeatureType::kFace && h < 0.0) continue;
+    offer(corner, cp.point, cp.feature);
+  }
+  // The triangle's closest point is inside edge q only when the box's is in
+  // that edge's Voronoi region, outside the edge's inward plane: with the
+  // whole box inside it, edge q's ends (the vertices above) are all it offers.
+  bool edge_possible[3];
+  for (int q = 0; q < 3; ++q) edge_possible[q] = -m[q].dot(v[q]) - e.dot(m[q].cwiseAbs()) <= 0.0;
+  for (int i = 0; i < 3; ++i) {  // edge-edge: the 4 box edges along u_i
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    for (int c = 0; c < 4; ++c) {
+      const int sj = c & 1, sk = (c >> 1) & 1;
+      if (!allowed[j][sj] || !allowed[k][sk]) continue;
+      Vec3 a, b;
+      a[j] = b[j] = sj ? e[j] : -e[j];
+      a[k] = b[k] = sk ? e[k] : -e[k];
+      a[i] = -e[i];
+      b[i] = e[i];
+      const double ha = height(a), hb = height(b);
+      if (hopeless(ha * hb <= 0.0 ? 0.0 : std::min(std::abs(ha), std::abs(hb)))) continue;
+      for (int q = 0; q < 3; ++q) {
+        if (!edge_possible[q]) continue;
+        const int r = (q + 1) % 3;
+        const detail::SegmentPair p = detail::closestSegmentSegment(a, b, v[q], v[r]);
+        offer(p.p, p.q, p.t <= 0.0 ? Feature::vertex(q) : (p.t >= 1.0 ? Feature::vertex(r) : Feature::edge(q)));
+      }
+    }
+  }
+  // The box point straight above the (closed) triangle: the face's region.
+  if (best.feature.type != FeatureType::kFace) {
+    const Vec3 w = best.b - best.t;
+    const double up = w.dot(n);
+    if (up > 0.0 && (w - up * n).squaredNorm() <= 1e-18 * w.squaredNorm()) best.feature = Feature::face();
+  }
+  return best;
+}
+
+struct BoxNarrowphase {
+  Pose pose;           // box in the query frame
+  Vec3 e;              // half extents
+  double contact_distance;
+  double scale;        // |e|: the box's size, for tolerances
+  double flat_;        // round-off tolerance on lengths (see kFlat)
+
+  // Keeps the points within the contact distance, at most 4 of them, and
+  // writes the patch in the query frame. False when none is left.
+  bool finish(Polygon& poly, const Vec3& N, detail::Patch& patch) const {
+    int kept = 0;
+    for (int c = 0; c < poly.count; ++c)
+      if (poly.depth[c] >= -contact_distance) {
+        poly.pts[kept] = poly.pts[c];
+        poly.depth[kept] = poly.depth[c];
+        ++kept;
+      }
+    if (kept == 0) return false;
+    int keep[4];
+    patch.count = detail::selectManifoldPoints(poly.pts, poly.depth, kept, N, scale, keep);
+    double deepest = -kInf;
+    for (int c = 0; c < patch.count; ++c) {
+      patch.points[c] = pose.apply(poly.pts[keep[c]]);
+      patch.depths[c] = poly.depth[keep[c]];
+      deepest = std::max(deepest, poly.depth[keep[c]]);
+    }
+    patch.normal = pose.rotation * N;
+    patch.distance = -deepest;
+    return true;
+  }
+
+  detail::PatchOutcome operator()(const CandidateTriangle& tri, detail::Patch& patch) const {
+    using detail::PatchOutcome;
+    Vec3 v[3];
+    for (int k = 0; k < 3; ++k) v[k] = pose.applyInverse(tri.vertices[k]);
+    // The box's face axes first: the cheapest rejection of the midphase's
+    // candidates (their boxes overlap the box's query-frame bounds only).
+    Vec3 lo = v[0].cwiseMin(v[1]).cwiseMin(v[2]), hi = v[0].cwiseMax(v[1]).cwiseMax(v[2]);
+    const double face_gap = std::max((lo - e).maxCoeff(), (-hi - e).maxCoeff());
+    if (face_gap > contact_distance) {
+      patch.distance = face_gap;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+    const Vec3 edges[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+    Vec3 n = edges[0].cross(v[2] - v[0]);
+    const double twice_area = n.norm();
+    const double longest2 = std::max({edges[0].squaredNorm(), edges[1].squaredNorm(), edges[2].squaredNorm()});
+    if (!(twice_area > 1e-12 * longest2)) {
+      patch.distance = v[0].norm();
+      return PatchOutcome::kDegenerate;
+    }
+    n /= twice_area;
+    const double tie = kTie * scale;
+    const double flat = flat_;
+
+    // 1. The centre's height over the plane; the box's half-thickness along n.
+    const double centre_height = -n.dot(v[0]);
+    if (centre_height < -flat) {
+      patch.distance = -centre_height;
+      return PatchOutcome::kBackFacing;
+    }
+    const double thickness = e.dot(n.cwiseAbs());
+    double separation = std::max(std::abs(centre_height) - thickness, face_gap);  // SAT along n and u_i
+    if (separation > contact_distance) {
+      patch.distance = separation;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+
+    // 2. The other 12 axes, unnormalized (a square root only when an axis
+    // separates, to compare with the contact distance).
+    Axis axes[12];
+    int axis_count = 0;
+    const auto project = [&](Axis& a) -> bool {  // false: separated beyond the contact distance
+      const double gap = std::max(a.tmin, -a.tmax) - a.rb;
+      if (gap >= 0.0) {
+        if (a.length == 0.0) a.length = std::sqrt(a.L.squaredNorm());
+        separation = std::max(separation, gap / a.length);
+        if (separation > contact_distance) return false;
+      }
+      ++axis_count;
+      return true;
+    };
+    bool beyond = false;
+    for (int i = 0; i < 3; ++i) {  // the box's faces (their gaps are in `separation` already)
+      Axis& a = axes[axis_count++];
+      a.L = Vec3::Unit(i);
+      a.length = 1.0;
+      a.rb = e[i];
+      a.tmin = lo[i];
+      a.tmax = hi[i];
+      a.kind = 1, a.box_axis = i, a.edge = 0;
+    }
+    for (int i = 0; i < 3 && !beyond; ++i) {
+      const int j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+      for (int j = 0; j < 3 && !beyond; ++j) {  // u_i x E_j
+        const Vec3& E = edges[j];
+        Axis& a = axes[axis_count];
+        a.L[i] = 0.0;
+        a.L[j1] = -E[j2];
+        a.L[j2] = E[j1];
+        const double length2 = E[j1] * E[j1] + E[j2] * E[j2];
+        if (length2 < 1e-12 * E.squaredNorm()) continue;  // parallel: nothing beyond the face axes
+        a.length = 0.0;  // computed when needed
+        a.rb = e[j1] * std::abs(E[j2]) + e[j2] * std::abs(E[j1]);
+        // E_j's ends project alike: the triangle spans two values.
+        const double p0 = a.L[j1] * v[j][j1] + a.L[j2] * v[j][j2];
+        const double p1 = a.L[j1] * v[(j + 2) % 3][j1] + a.L[j2] * v[(j + 2) % 3][j2];
+        a.tmin = std::min(p0, p1);
+        a.tmax = std::max(p0, p1);
+        a.kind = 2, a.box_axis = i, a.edge = j;
+        beyond = !project(a);
+      }
+    }
+    if (beyond) {
+      patch.distance = separation;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+    const Vec3 m[3] = {n.cross(edges[0]), n.cross(edges[1]), n.cross(edges[2])};
+    Polygon poly;
+
+    // 3. Apart: the exact closest pair and its triangle feature.
+    if (separation >= 0.0) {
+      const ClosestPair pair = closestPair(v, n, m, e, tie);
+      patch.distance = pair.d;
+      if (pair.d > contact_distance) return PatchOutcome::kBeyondContactDistance;
+      patch.feature = pair.feature;
+      Vec3 N = n;
+      if (pair.feature.type == FeatureType::kFace) {
+        incidentFace(v, n, m, e, poly);
+        poly.pts[poly.count] = pair.b;  // may lie off the incident face
+        poly.depth[poly.count++] = -pair.d;
+      } else {
+        N = normalizedOr(pair.b - pair.t, n);
+        int i = 0;
+        for (int k = 1; k < 3; ++k)
+          if (std::abs(N[k]) > std::abs(N[i])) i = k;
+        if (1.0 - std::abs(N[i]) <= 1e-12) {  // a box face facing the edge / vertex
+          N = Vec3::Zero();
+          N[i] = pair.b[i] > pair.t[i] ? 1.0 : -1.0;
+          referenceFace(v, i, N[i], e, poly);
+        } else {
+          poly.pts[0] = pair.b;
+          poly.depth[0] = -pair.d;
+          poly.count = 1;
+        }
+      }
+      if (!finish(poly, N, patch)) return PatchOutcome::kBeyondContactDistance;
+      return PatchOutcome::kContact;
+    }
+
+    // 4. Intersecting: does this triangle own the contact? s = the lowest
+    // corners' average; along u_i the corners tie when |n_i| e_i is nil.
+    Vec3 s;
+    for (int i = 0; i < 3; ++i) s[i] = 2.0 * std::abs(n[i]) * e[i] <= flat ? 0.0 : (n[i] > 0.0 ? -e[i] : e[i]);
+    bool owned = true;
+    for (int k = 0; k < 3 && owned; ++k) owned = m[k].dot(s - v[k]) >= -flat * std::sqrt(edges[k].squaredNorm());
+    const auto own = [&]() {
+      patch.feature = Feature::face();
+      incidentFace(v, n, m, e, poly);
+      if (!finish(poly, n, patch)) {  // not expected: s lies on the incident face, over the triangle
+        patch.count = 1;
+        patch.points[0] = pose.apply(s);
+        patch.depths[0] = thickness - centre_height;
+        patch.normal = pose.rotation * n;
+        patch.distance = -patch.depths[0];
+      }
+      return PatchOutcome::kContact;
+    };
+    if (owned) return own();
+
+    // 5. The axis of least penetration, n first. For n the penetration is the
+    // exact depth over the triangle: the SAT overlap (box's lowest point
+    // anywhere) overstates the push needed when the box's deepest part is not
+    // over this triangle.
+    const DeepestOver over = deepestOverTriangle(v, n, m, e, flat);
+    const double n_depth = over.depth;
+    const Vec3& deepest_point = over.where;
+    struct Best {
+      Vec3 N;
+      double pen;
+      int kind, box_axis, edge;
+    } best{n, n_depth > -kInf ? n_depth : kInf, 0, 0, 0};
+    // The deepest point over the triangle strictly inside the prism: the box
+    // enters through the face, so n is kept unless another axis needs less
+    // than half the push (near an internal edge the per-triangle overlap
+    // along a tilted axis is often smaller only because the triangle ends).
+    const bool interior = std::isfinite(best.pen) && over.mask == 0;
+    const double n_bias = interior ? kInteriorFaceBias : kFaceBias;
+    for (int a = 0; a < axis_count; ++a) {
+      Axis& ax = axes[a];
+      if (ax.length == 0.0) ax.length = std::sqrt(ax.L.squaredNorm());
+      const double sign_n = ax.L.dot(n) / ax.length;
+      const double pens[2] = {(ax.tmax + ax.rb) / ax.length, (ax.rb - ax.tmin) / ax.length};  // push along +L, -L
+      for (int o = 0; o < 2; ++o) {
+        const double along_n = o == 0 ? sign_n : -sign_n;
+        if (along_n < -1e-9) continue;  // would point to the triangle's back
+        const double bias = best.kind == 0 ? n_bias : kFaceBias;
+        const double margin =
+            ax.kind > best.kind && std::isfinite(best.pen) ? bias * std::abs(best.pen) + 1e-6 * scale : 0.0;
+        if (pens[o] < best.pen - margin) {
+          const Vec3 L = ax.L / ax.length;
+          best = {o == 0 ? L : Vec3(-L), pens[o], ax.kind, ax.box_axis, ax.edge};
+        }
+      }
+    }
+    if (!std::isfinite(best.pen)) {  // not expected: intersecting boxes have a finite push
+      patch.distance = 0.0;
+      return PatchOutcome::kDegenerate;
+    }
+    const Vec3& N = best.N;
+    if (best.kind == 0) {
+      incidentFace(v, n, m, e, poly);
+      poly.pts[poly.count] = deepest_point;
+      poly.depth[poly.count++] = n_depth;
+    } else if (best.kind == 1) {
+      referenceFace(v, best.box_axis, N[best.box_axis], e, poly);
+    } else {
+      // Box edge along u_i that is lowest along N; triangle's highest feature along N.
+      const int i = best.box_axis, j = best.edge;
+      Vec3 corner;
+      for (int k = 0; k < 3; ++k) corner[k] = N[k] > 0.0 ? -e[k] : e[k];
+      Vec3 lo = corner, hi = corner;
+      lo[i] = -e[i];
+      hi[i] = e[i];
+      const Vec3& a = v[j];
+      const Vec3& b = v[(j + 1) % 3];
+      const Vec3& opposite = v[(j + 2) % 3];
+      const bool vertex_higher = N.dot(opposite - a) > 1e-9 * std::sqrt(longest2);
+      const detail::SegmentPair pair =
+          vertex_higher ? detail::closestSegmentSegment(lo, hi, opposite, opposite) : detail::closestSegmentSegment(lo, hi, a, b);
+      poly.pts[0] = pair.p;
+      poly.depth[0] = N.dot(pair.q - pair.p);
+      poly.count = 1;
+    }
+    if (!finish(poly, N, patch)) {
+      // Clipping left nothing within reach: the box's deepest corner along
+      // -N carries the SAT depth.
+      for (int k = 0; k < 3; ++k) poly.pts[0][k] = N[k] > 0.0 ? -e[k] : e[k];
+      poly.depth[0] = best.pen;
+      poly.count = 1;
+      finish(poly, N, patch);
+    }
+    if (best.kind == 0) {
+      patch.feature = Feature::face();  // the support feature along n
+      return PatchOutcome::kContact;
+    }
+    // A tilted axis: the feature and the sort key are where the box's lower
+    // envelope is least over the triangle (envelopeMinimum), so that the
+    // neighbour holding the deeper part is met first and voids the edge.
+    double key = 0.0;
+    if (envelopeMinimum(v, n, m, e, s, 1e-9 / scale, flat, key, patch.feature)) {
+      patch.distance = key;
+    } else {
+      patch.feature = maskFeature(over.mask);
+      patch.distance = -n_depth;
+    }
+    // The minimum inside the triangle: Phi's global one, so the triangle holds
+    // s after all (within round-off).
+    if (patch.feature.type == FeatureType::kFace) return own();
+    return PatchOutcome::kContact;
+  }
+};
+
+Status checkQuery(const Box& box, const Pose& pose, const QuerySettings& settings) {
+  Status s = checkBox(box, pose);
+  if (!s) return s;
+  s = detail::checkContactDistance(settings.contact_distance);
+  if (!s) return s;
+  return detail::checkManifoldSettings(settings);
+}
+
+}  // namespace
+
+Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
+                            const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkQuery(box, pose, settings);
+  if (!s) return s;
+  const double scale = box.half_extents.norm();
+  const BoxNarrowphase narrowphase{pose, box.half_extents, settings.contact_distance, scale,
+                                   kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
+  QueryScratch::Impl& sc = scratch.impl();
+  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
+  return Status::ok();
+}
+
+Status collideBox(const MeshInstance* instances, std::size_t count, const Box& box, const Pose& pose,
+                  const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkQuery(box, pose, settings);
+  if (!s) return s;
+  // The rotated box's bounds, inflated by the contact distance.
+  const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
+  QueryScratch::Impl& sc = scratch.impl();
+  s = gatherCandidates(instances, count, pose.translation - half, pose.translation + half, settings.key_mode, scratch,
+                       sc.candidates);
+  if (!s) return s;
+  return collideBoxCandidates(box, pose, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+}
+
+Status collideBox(const TriangleMesh& mesh, const Box& box, const Pose& pose, const QuerySettings& settings,
+                  QueryScratch& scratch, std::vector<Contact>& contacts) {
+  const MeshInstance instance{&mesh, Pose::identity()};
+  return collideBox(&instance, 1, box, pose, settings, scratch, contacts);
+}
+
+}  // namespace meshcontact

@@ -1,0 +1,781 @@
+// Support shapes (general convex, hull, cylinder) vs mesh triangles.
+//
+// The shape is a core K swept by a ball of radius m (convex.h). Per
+// triangle T the core plays the part of the sphere's centre in the
+// reference's method, and m the part of its radius:
+//  - separated core (the common case: resting, sliding, penetrating by less
+//    than m): the closest points of K and T (our GJK distance, Gilbert-
+//    Johnson-Keerthi in van den Bergen's form) give the normal u =
+//    normalize(k - t) and the depth m - d; the feature is the triangle's
+//    support feature along u (DESIGN.md §3). The closest-point *direction* of
+//    two convex sets is unique even when the witness points are not (a core
+//    face parallel to the triangle touches along a polygon and GJK may
+//    return any point of it, a triangle vertex included), so the feature
+//    never depends on which witness GJK happened to return.
+//  - Why this removes ghosts on flat ground (the sphere's argument, reference
+//    §4-5, with K for the centre): if K is above a plane tessellated by
+//    triangles, the distance f(y) = dist(y, K) from a point y of the plane
+//    to K is a convex function of y. A triangle whose minimizer of f
+//    lies on its boundary has a neighbour across that edge (or vertex) at
+//    least as close, and strictly closer unless the closest vector is
+//    already the plane normal; the face triangle under K's lowest point
+//    voids its edges and vertices, and the sorted, unconditionally voiding
+//    pass carries that through the rest. Nothing depends on the triangles'
+//    shapes or on K's.
+//  - Two exact face tests avoid trusting GJK's convergence for the triangle
+//    under the shape: K's lowest point along -n lies over T's interior (then
+//    the closest vector is exactly along n), or GJK's distance equals K's
+//    height above T's plane (the plane's distance is a lower bound of the
+//    triangle's, reached only along n).
+//  - Cost: one separating-axis test per triangle (the axis from the
+//    triangle's point nearest the shape's center; one support call) rejects
+//    most candidates of a resting shape; GJK (in a frame at the triangle,
+//    early exit once its lower bound passes the reach) runs on the few left.
+//  - Deep penetration (K touches a triangle): the whole query is redone with
+//    K scaled toward the shape's center() by 1/2, 1/4, then 0 (the center
+//    point, i.e. exactly the sphere's rule), the first scale that clears K of
+//    every candidate. The same scaled K serves every triangle, so the
+//    argument above still holds; each contact's depth and point come from
+//    the full shape along the normal (the separation of the two projections
+//    on it, as in SAT). Two details keep it exact on flat ground:
+//    (a) the triangle under the full shape's deepest point owns a face patch
+//        with that point (face-ownership rule: the scaled core's face
+//        triangle may be another one, whose patch alone would understate
+//        the depth);
+//    (b) a triangle within the scaled core's reach but whose projection
+//        along its normal does not reach the shape still goes through the
+//        filter, as a patch with no point: it is voided, and voids, in its
+//        turn. Its trace entry reads as a contact with no point.
+
+#include "meshcontact/convex.h"
+
+#include "convex_patch.h"
+#include "gjk_distance.h"
+#include "hull3d.h"
+#include "manifold_reduction.h"
+#include "meshcontact/triangle.h"
+#include "scratch.h"
+#include "validate.h"
+#include "voided_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace meshcontact {
+
+SupportShape::~SupportShape() = default;
+
+Vec3 SupportShape::center() const {
+  Vec3 sum = Vec3::Zero();
+  for (int k = 0; k < 3; ++k) sum += support(Vec3::Unit(k)) + support(-Vec3::Unit(k));
+  return sum / 6.0;
+}
+
+Vec3 SupportShape::shapeSupport(const Vec3& d) const {
+  return support(d) + margin() * normalizedOr(d, Vec3::Zero());
+}
+
+namespace {
+
+// Supporting-face slack: points within this slope times the shape's size of
+// the extreme height join the face (about 3 degrees of tilt).
+constexpr double kFaceSlope = 0.05;
+
+// The largest explicit margin accepted, as a fraction of the inradius: the
+// core keeps at least half the shape's thickness.
+constexpr double kMaxMarginFraction = 0.5;
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// ConvexHull
+
+Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
+  points_.clear();
+  core_.clear();
+  diameter_ = inradius_ = margin_ = 0.0;
+  centroid_.setZero();
+  if (points.size() < 4)
+    return {ErrorCode::kInvalidShape,
+            "convex hull needs at least 4 points, got " + std::to_string(points.size())};
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (!detail::inRange(points[i]))
+      return {ErrorCode::kInvalidShape, "convex hull point " + std::to_string(i) +
+                                            " is not finite or beyond +-1e50: " + detail::describe(points[i])};
+  Vec3 lo = points[0], hi = points[0];
+  for (const Vec3& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double diameter = (hi - lo).norm();  // within sqrt(3) of the true diameter
+  const double tol = 1e-9 * diameter;
+  if (!(diameter > 0.0)) return {ErrorCode::kInvalidShape, "convex hull points are all coincident"};
+  for (std::size_t i = 0; i < points.size(); ++i)
+    for (std::size_t j = i + 1; j < points.size(); ++j)
+      if ((points[i] - points[j]).norm() <= tol)
+        return {ErrorCode::kInvalidShape, "convex hull points " + std::to_string(i) + " and " + std::to_string(j) +
+                                              " coincide (closer than 1e-9 of the hull's size): " +
+                                              detail::describe(points[i])};
+  // Volume: the farthest point from p0, then from the line, then from the plane.
+  const Vec3& p0 = points[0];
+  std::size_t i1 = 0;
+  for (std::size_t i = 1; i < points.size(); ++i)
+    if ((points[i] - p0).squaredNorm() > (points[i1] - p0).squaredNorm()) i1 = i;
+  const Vec3 axis = (points[i1] - p0).normalized();
+  std::size_t i2 = 0;
+  double best = -1.0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double d = (points[i] - p0).cross(axis).norm();
+    if (d > best) best = d, i2 = i;
+  }
+  if (!(best > tol)) return {ErrorCode::kInvalidShape, "convex hull points are collinear: the hull has no volume"};
+  const Vec3 normal = axis.cross(points[i2] - p0).normalized();
+  double height = 0.0;
+  for (const Vec3& p : points) height = std::max(height, std::abs(normal.dot(p - p0)));
+  if (!(height > tol)) return {ErrorCode::kInvalidShape, "convex hull points are coplanar: the hull has no volume"};
+
+  // Face planes, relative to the centroid (an interior point: the mean of a
+  // point set that spans a volume lies inside its hull).
+  Vec3 centroid = Vec3::Zero();
+  for (const Vec3& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  std::vector<Vec3> local(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) local[i] = points[i] - centroid;
+  std::vector<detail::HullPlane> planes;
+  if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, planes))
+    return {ErrorCode::kInvalidShape, "convex hull points are (nearly) coplanar: the hull has no volume"};
+  double inradius = std::numeric_limits<double>::infinity();
+  for (const detail::HullPlane& f : planes) inradius = std::min(inradius, f.offset);
+  if (!(inradius > tol))
+    return {ErrorCode::kInvalidShape, "convex hull is too thin around its centroid (inradius " +
+                                          std::to_string(inradius) + ")"};
+  double m = kDefaultMarginFraction * inradius;
+  if (margin != kAutoMargin) {
+    if (!std::isfinite(margin) || margin < 0.0 || margin > kMaxMarginFraction * inradius)
+      return {ErrorCode::kInvalidShape, "convex hull margin must be kAutoMargin or in [0, " +
+                                            std::to_string(kMaxMarginFraction * inradius) +
+                                            "] (half the inradius), got " + std::to_string(margin)};
+    m = margin;
+  }
+
+  // The hull's vertices: the points on at least three of its (distinct)
+  // face planes; points inside, on a face or along an edge never support
+  // anything alone.
+  std::vector<Vec3> boundary;
+  for (const Vec3& p : local) {
+    int on = 0;
+    for (const detail::HullPlane& f : planes) on += f.normal.dot(p) - f.offset >= -1e-9 * diameter;
+    if (on >= 3) boundary.push_back(p);
+  }
+  std::vector<Vec3> core;
+  if (m > 0.0) {
+    // The inner parallel body Q = {x : n_f . x <= o_f - m} (every face plane
+    // moved in by m: Q (+) ball(m) is the hull with its edges and corners
+    // rounded). Its vertices are the duals of the facets of the hull of the
+    // points y_f = n_f / (o_f - m) (polar duality about the centroid, an
+    // interior point: x is in Q iff x . y_f <= 1 for all f). Any supporting
+    // plane (N, D) of the y_f maps to x = N / D with x . y_f <= 1, a point of
+    // Q, so a dual facet computed slightly wrong still gives a point inside
+    // Q, never outside: the rounded hull never pokes out of the hull.
+    std::vector<Vec3> dual(planes.size());
+    Vec3 dlo = Vec3::Constant(std::numeric_limits<double>::infinity()), dhi = -dlo;
+    for (std::size_t f = 0; f < planes.size(); ++f) {
+      dual[f] = planes[f].normal / (planes[f].offset - m);
+      dlo = dlo.cwiseMin(dual[f]);
+      dhi = dhi.cwiseMax(dual[f]);
+    }
+    std::vector<detail::HullPlane> dual_planes;
+    std::vector<Vec3> q_vertices;
+    if (detail::hullPlanes(dual.data(), dual.size(), 1e-10 * (dhi - dlo).norm(), dual_planes)) {
+      for (const detail::HullPlane& g : dual_planes) {
+        if (!(g.offset > 0.0)) continue;
+        Vec3 x = g.normal / g.offset;
+        // Rounding: pull x toward the centroid onto Q if it pokes out.
+        double t = 1.0;
+        for (const detail::HullPlane& f : planes) {
+          const double h = f.normal.dot(x);
+          if (h > f.offset - m) t = std::min(t, (f.offset - m) / h);
+        }
+        if ((t * x).allFinite()) q_vertices.push_back(t * x);
+      }
+    }
+    // Q has a vertex per triple of face planes meeting at a hull vertex:
+    // 2F - 4 of them for F faces (116 for a random 32-point hull, whose
+    // vertices each split into a small cluster). The core keeps one point
+    // per hull vertex, the point of Q nearest to it (GJK against Q's
+    // vertices: exact for a polytope). Still inside Q, so still inside the
+    // hull once rounded; exactly Q where hull vertices are simple (a box);
+    // elsewhere its faces lie within a few percent of m of the hull's
+    // (measured: 3% of m on random 32-point hulls), for a quarter of the
+    // support cost.
+    if (q_vertices.size() >= 4) {
+      const auto q_support = [&](const Vec3& d) {
+        std::size_t best = 0;
+        for (std::size_t i = 1; i < q_vertices.size(); ++i)
+          if (q_vertices[i].dot(d) > q_vertices[best].dot(d)) best = i;
+        return q_vertices[best];
+      };
+      for (const Vec3& v : boundary) {
+        const auto at_v = [&](const Vec3&) { return v; };
+        const detail::GjkResult g = detail::gjkDistance(q_support, at_v, Vec3(-v), diameter);
+        const Vec3 x = g.status == detail::GjkStatus::kSeparated ? g.point_a : v;
+        bool duplicate = false;
+        for (const Vec3& y : core) duplicate |= (x - y).norm() <= 1e-9 * diameter;
+        if (!duplicate && x.allFinite()) core.push_back(x);
+      }
+      if (core.size() < 4) core = q_vertices;
+    }
+    if (core.size() < 4) {
+      // The dual hull failed (it should not): scale the hull about the
+      // centroid by 1 - m / inradius, which moves every face plane in by at
+      // least m (Q contains this core).
+      core.clear();
+      const double k = 1.0 - m / inradius;
+      for (const Vec3& p : boundary) core.push_back(k * p);
+    }
+  } else {
+    core = boundary;  // a sharp hull is its own core
+  }
+  for (Vec3& x : core) x += centroid;
+
+  points_ = points;
+  core_ = std::move(core);
+  centroid_ = centroid;
+  diameter_ = diameter;
+  inradius_ = inradius;
+  margin_ = m;
+  return Status::ok();
+}
+
+Vec3 ConvexHull::support(const Vec3& d) const {
+  // Linear scan: for a few dozen points it beats hill climbing, which needs
+  // adjacency and branches on every step. Ties keep the first point.
+  std::size_t best = 0;
+  double best_h = core_[0].dot(d);
+  for (std::size_t i = 1; i < core_.size(); ++i) {
+    const double h = core_[i].dot(d);
+    if (h > best_h) best_h = h, best = i;
+  }
+  return core_[best];
+}
+
+int ConvexHull::supportFace(const Vec3& d, Vec3* out) const {
+  const Vec3 u = normalizedOr(d, Vec3::UnitZ());
+  double top = -std::numeric_limits<double>::infinity();
+  for (const Vec3& p : core_) top = std::max(top, p.dot(u));
+  const double floor = top - kFaceSlope * diameter_;
+  // Deepest first (ties by index), at most kMaxFacePoints: insertion into a
+  // small sorted array, no allocation.
+  int n = 0;
+  double heights[kMaxFacePoints];
+  for (const Vec3& p : core_) {
+    const double h = p.dot(u);
+    if (h < floor) continue;
+    int at = n;
+    while (at > 0 && heights[at - 1] < h) --at;
+    if (at >= kMaxFacePoints) continue;
+    const int last = std::min(n, kMaxFacePoints - 1);
+    for (int k = last; k > at; --k) {
+      heights[k] = heights[k - 1];
+      out[k] = out[k - 1];
+    }
+    heights[at] = h;
+    out[at] = p;
+    n = std::min(n + 1, kMaxFacePoints);
+  }
+  return n;
+}
+
+Status ConvexHull::validate() const {
+  if (!isBuilt()) return {ErrorCode::kInvalidShape, "convex hull is empty: build() has not succeeded"};
+  return Status::ok();
+}
+
+// ---------------------------------------------------------------------------
+// CylinderShape
+
+CylinderShape::CylinderShape(const Cylinder& cylinder, double margin) : cylinder_(cylinder) {
+  const double smallest = std::min(cylinder.radius, cylinder.half_length);
+  if (margin == kAutoMargin) {
+    margin_ = std::isfinite(smallest) && smallest > 0.0 ? kDefaultMarginFraction * smallest : 0.0;
+  } else {
+    margin_ = margin;
+    margin_in_range_ = std::isfinite(margin) && margin >= 0.0 && margin <= kMaxMarginFraction * smallest;
+    if (!margin_in_range_) margin_ = 0.0;
+  }
+  core_radius_ = cylinder.radius - margin_;
+  core_half_length_ = cylinder.half_length - margin_;
+}
+
+Vec3 CylinderShape::support(const Vec3& d) const {
+  const double r = core_radius_, h = core_half_length_;
+  // sqrt, not hypot (5x slower here): directions come from GJK and the
+  // queries, far from overflow; an underflowing x, y is the axis case.
+  const double rxy = std::sqrt(d.x() * d.x() + d.y() * d.y());
+  const double z = d.z() >= 0.0 ? h : -h;
+  if (!(rxy > 0.0)) return Vec3(0.0, 0.0, z);  // along the axis: the cap's centre is extreme
+  return Vec3(r * d.x() / rxy, r * d.y() / rxy, z);
+}
+
+int CylinderShape::supportFace(const Vec3& d, Vec3* out) const {
+  const double r = core_radius_, h = core_half_length_;
+  const Vec3 u = normalizedOr(d, Vec3::UnitZ());
+  const double along = std::abs(u.z());
+  const double z = u.z() >= 0.0 ? h : -h;
+  if (along >= std::sqrt(1.0 - kFaceSlope * kFaceSlope)) {
+    // The cap: 8 rim points (an inscribed octagon, see convex.h).
+    const double c = std::sqrt(0.5) * r;
+    const double xy[8][2] = {{r, 0}, {c, c}, {0, r}, {-c, c}, {-r, 0}, {-c, -c}, {0, -r}, {c, -c}};
+    for (int k = 0; k < 8; ++k) out[k] = Vec3(xy[k][0], xy[k][1], z);
+    return 8;
+  }
+  if (along <= kFaceSlope) {
+    // Lying on its side: the segment of the side that is extreme.
+    const double rxy = std::hypot(u.x(), u.y());
+    const Vec3 rim(r * u.x() / rxy, r * u.y() / rxy, 0.0);
+    out[0] = rim - Vec3(0, 0, h);
+    out[1] = rim + Vec3(0, 0, h);
+    return 2;
+  }
+  out[0] = support(d);
+  return 1;
+}
+
+Status CylinderShape::validate() const {
+  const Cylinder& c = cylinder_;
+  if (!detail::inRange(c.radius) || !(c.radius > 0.0))
+    return {ErrorCode::kInvalidShape, "cylinder radius must be finite and > 0, got " + std::to_string(c.radius)};
+  if (!detail::inRange(c.half_length) || !(c.half_length > 0.0))
+    return {ErrorCode::kInvalidShape,
+            "cylinder half_length must be finite and > 0, got " + std::to_string(c.half_length)};
+  if (!margin_in_range_)
+    return {ErrorCode::kInvalidShape, "cylinder margin must be kAutoMargin or in [0, " +
+                                          std::to_string(kMaxMarginFraction * std::min(c.radius, c.half_length)) +
+                                          "] (half of min(radius, half_length))"};
+  return Status::ok();
+}
+
+// ---------------------------------------------------------------------------
+// Narrowphase
+
+namespace {
+
+struct Counters {
+  bool support_not_finite = false;
+  bool core_intersects = false;  // this pass must be redone with a smaller core
+};
+
+// The core in the query frame, scaled by `scale` about `center`.
+struct PlacedCore {
+  const SupportShape* shape;
+  const Mat3* rotation;
+  Vec3 translation;
+  Vec3 center;
+  double scale;
+  Counters* counters;
+
+  Vec3 full(const Vec3& d) const {
+    const Vec3 p = *rotation * shape->support(rotation->transpose() * d) + translation;
+    if (!p.allFinite()) {
+      counters->support_not_finite = true;
+      return center;
+    }
+    return p;
+  }
+  Vec3 operator()(const Vec3& d) const {
+    const Vec3 p = full(d);
+    return scale == 1.0 ? p : Vec3(center + scale * (p - center));
+  }
+};
+
+struct TriangleSupport {
+  const Vec3* v;
+  Vec3 operator()(const Vec3& d) const {
+    const double h0 = v[0].dot(d), h1 = v[1].dot(d), h2 = v[2].dot(d);
+    if (h0 >= h1 && h0 >= h2) return v[0];
+    return h1 >= h2 ? v[1] : v[2];
+  }
+};
+
+struct ConvexNarrowphase {
+  const SupportShape* shape;
+  Pose pose;
+  double margin;
+  double contact_distance;
+  double size;   // the shape's size (bounding-box diagonal), for tolerances
+  Vec3 center;   // shape.center() in the query frame
+  double scale;  // of the core about the center: 1, then smaller under deep penetration
+  double radius; // of the core about the center (an upper bound)
+  Counters* counters;
+
+  detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
+    using detail::PatchOutcome;
+    const Vec3* tri = t.vertices;
+    const Vec3 &a = tri[0], &b = tri[1], &c = tri[2];
+    const Vec3 ab = b - a, ac = c - a;
+    Vec3 n = ab.cross(ac);
+    const double twice_area = n.norm();
+    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
+    if (!(twice_area > 1e-12 * longest2)) {
+      p.distance = (center - a).norm();
+      return PatchOutcome::kDegenerate;
+    }
+    n /= twice_area;
+    if (counters->core_intersects || counters->support_not_finite) {
+      // This pass is void (to be redone, or an error): skip the work.
+      p.distance = 0.0;
+      return PatchOutcome::kDegenerate;
+    }
+    const PlacedCore core{shape, &pose.rotation, pose.translation, center, scale, counters};
+    // Beyond reach: the scaled core K farther than `reach` from the
+    // triangle. The full shape lies within margin + (1 - scale) * radius of
+    // K (radius: of the core about the center), so this never rejects a
+    // triangle the shape reaches, and being a bound on K's distance (the
+    // delayed pass's sort key) it keeps the voiding order intact.
+    const double reach = margin + (1.0 - scale) * radius + contact_distance;
+    // Cheap rejection, first (most candidates of a resting shape end here): the separating axis from the triangle's point
+    // closest to the center (the triangle lies behind the plane through that
+    // point normal to the axis), one support call.
+    const Vec3 q = closestPointOnTriangle(center, a, b, c).point;
+    const Vec3 w = normalizedOr(center - q, n);
+    const double separation = w.dot(core(-w) - q);
+    if (separation > reach) {
+      p.distance = separation - margin;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+    const Vec3 low = core(-n);  // the (scaled) core's lowest point along n
+    const double gap = n.dot(low - a);
+    // One-sided: culled when the whole (scaled) core is behind the plane.
+    if (gap < 0.0) {
+      const double top = n.dot(core(n) - a);
+      if (top < 0.0) {
+        p.distance = -top;
+        return PatchOutcome::kBackFacing;
+      }
+    }
+    // Even the plane is beyond reach of the full shape (fig. 1).
+    const Vec3 low_full = scale == 1.0 ? low : core.full(-n);
+    const double plane_gap = n.dot(low_full - a) - margin;
+    if (counters->support_not_finite) return PatchOutcome::kDegenerate;
+    if (plane_gap > contact_distance) {
+      p.distance = plane_gap;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+
+    // Deep pass: the face-ownership rule. The triangle under the full
+    // shape's deepest point (its center in front of the plane) owns a face
+    // patch with that point, whatever the scaled core's closest feature: on
+    // flat ground the scaled core's face triangle need not be the one under
+    // the deepest point, and its patch (clipped to its own prism) would
+    // understate the depth. Another face patch only voids more, never adds a
+    // ghost normal.
+    if (scale < 1.0 && n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n)) {
+      p.distance = plane_gap;
+      return facePatch(tri, n, low_full - margin * n, true, p);
+    }
+    if (scale == 0.0) return centerPatch(tri, n, low_full, p);
+
+    // Exact face: K's lowest point over the triangle's interior.
+    if (gap > 0.0 && closestPointOnTriangle(low, a, b, c).feature.type == FeatureType::kFace) {
+      p.distance = gap - margin;
+      return facePatch(tri, n, low_full - margin * n, scale == 1.0, p);
+    }
+
+    detail::GjkSettings gjk;
+    gjk.max_distance = reach;
+    gjk.relative_gap = 1e-10;
+    // GJK in a frame at the triangle's first vertex: the Minkowski
+    // difference's points then have the size of the problem, not of the
+    // query frame's coordinates (a mesh 1e5 from its origin would otherwise
+    // cost GJK five digits).
+    const Vec3 local_tri[3] = {Vec3::Zero(), ab, ac};
+    const PlacedCore local_core{shape, &pose.rotation, pose.translation - a, center - a, scale, counters};
+    detail::GjkResult g =
+        detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk);
+    g.point_a += a;
+    g.point_b += a;
+    if (g.status == detail::GjkStatus::kNotFinite || counters->support_not_finite) {
+      counters->support_not_finite = true;
+      return PatchOutcome::kDegenerate;
+    }
+    if (g.status == detail::GjkStatus::kIntersecting) {
+      counters->core_intersects = true;
+      p.distance = 0.0;
+      return PatchOutcome::kDegenerate;
+    }
+    const double d = g.distance;
+    if (g.beyond) {
+      p.distance = d - margin;
+      return PatchOutcome::kBeyondContactDistance;
+    }
+    const Vec3 u = normalizedOr(g.v, n);
+    p.distance = d - margin;  // the delayed pass's sort key: the same core for every triangle
+    if (u.dot(n) < 0.0) {
+      // K's closest point is behind the plane: K reaches around the
+      // triangle from its back, which a one-sided triangle does not have.
+      return PatchOutcome::kBackFacing;
+    }
+    // Face when the distance is the plane's (only reached along n), or when
+    // the triangle's support feature along u is its face.
+    bool face = gap > 0.0 && d <= gap + 1e-9 * size;
+    if (!face) {
+      // Tolerance 1e-4 (of the triangle's size, i.e. ~1e-4 rad): above
+      // GJK's ~1e-6 rad on curved cores, so an edge is not taken for one of
+      // its vertices (which a neighbour's contact would then void).
+      p.feature = supportFeature(a, b, c, u, 1e-4);
+      face = p.feature.type == FeatureType::kFace;
+    }
+    if (scale == 1.0) {
+      if (d - margin > contact_distance) return PatchOutcome::kBeyondContactDistance;
+      if (face) return facePatch(tri, n, Vec3(g.point_a - margin * n), true, p);
+      p.normal = u;
+      p.count = 1;
+      p.points[0] = g.point_a - margin * u;
+      p.depths[0] = margin - d;
+      return PatchOutcome::kContact;
+    }
+    if (face) return facePatch(tri, n, low_full - margin * n, false, p);
+    return pointPatch(tri, u, p);
+  }
+
+  // Whether x projects along n into the closed triangle (edge planes
+  // n x (v_k+1 - v_k), counter-clockwise about n).
+  static bool overTriangle(const Vec3& x, const Vec3 tri[3], const Vec3& n) {
+    for (int k = 0; k < 3; ++k)
+      if (n.cross(tri[(k + 1) % 3] - tri[k]).dot(x - tri[k]) < 0.0) return false;
+    return true;
+  }
+
+  // Deep penetration, the core shrunk to its center (a point in front of
+  // the plane): the sphere's rule, exactly.
+  detail::PatchOutcome centerPatch(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, detail::Patch& p) const {
+    const ClosestPoint q = closestPointOnTriangle(center, tri[0], tri[1], tri[2]);
+    const Vec3 v = center - q.point;
+    const double d = v.norm();
+    p.distance = d - margin;
+    if (d > margin + radius + contact_distance) return detail::PatchOutcome::kBeyondContactDistance;
+    if (q.feature.type == FeatureType::kFace || !(d > 1e-12 * size))
+      return facePatch(tri, n, low_full - margin * n, false, p);
+    p.feature = q.feature;
+    return pointPatch(tri, v / d, p);
+  }
+
+  // One point along u for the full shape: its extreme point along -u and the
+  // separation of the shape's and the triangle's projections on u.
+  detail::PatchOutcome pointPatch(const Vec3 tri[3], const Vec3& u, detail::Patch& p) const {
+    const PlacedCore core{shape, &pose.rotation, pose.translation, center, 1.0, counters};
+    const Vec3 point = core.full(-u) - margin * u;
+    if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
+    const double depth = u.dot(TriangleSupport{tri}(u)) - u.dot(point);
+    p.normal = u;
+    p.count = 0;
+    // Beyond reach along u: still a patch, with no point, so that the
+    // triangle is voided in its turn. The reach test along u is not
+    // monotone in the scaled core's distance (the sort key) as d - margin
+    // is, and a triangle skipped out of order would break the chain of
+    // voided neighbours the flat-ground argument relies on.
+    if (-depth > contact_distance) return detail::PatchOutcome::kContact;
+    p.count = 1;
+    p.points[0] = point;
+    p.depths[0] = depth;
+    return detail::PatchOutcome::kContact;
+  }
+
+  // A face patch along the triangle's normal n: the core's supporting face
+  // along -n clipped to the triangle's prism and moved out by the margin
+  // onto the shape's surface, each point with its own depth. The witness (a
+  // deepest point of the shape, over the triangle when `witness_over` holds)
+  // is added when the clip misses it or is empty.
+  detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, const Vec3& witness, bool witness_over,
+                                 detail::Patch& p) const {
+    const Vec3& a = tri[0];
+    p.feature = Feature::face();
+    p.normal = n;
+    Vec3 local[SupportShape::kMaxFacePoints];
+    int k = shape->supportFace(pose.rotation.transpose() * -n, local);
+    k = std::max(1, std::min(k, SupportShape::kMaxFacePoints));
+    const Vec3 e1 = (tri[1] - a).normalized();
+    const Vec3 e2 = n.cross(e1);
+    detail::FacePoint poly[SupportShape::kMaxFacePoints];
+    bool finite = true;
+    for (int i = 0; i < k; ++i) {
+      const Vec3 q = pose.apply(local[i]) - margin * n;
+      finite &= q.allFinite();
+      poly[i].p = q;
+      poly[i].x = e1.dot(q - a);
+      poly[i].y = e2.dot(q - a);
+    }
+    if (!finite || !witness.allFinite()) {
+      counters->support_not_finite = true;
+      return detail::PatchOutcome::kDegenerate;
+    }
+    if (k >= 3) k = detail::convexHull2d(poly, k);
+    double tri2d[3][2];
+    for (int i = 0; i < 3; ++i) {
+      tri2d[i][0] = e1.dot(tri[i] - a);
+      tri2d[i][1] = e2.dot(tri[i] - a);
+    }
+    detail::FacePoint clipped[detail::kMaxClipPoints];
+    const int m = detail::clipToTriangle(poly, k, tri2d, clipped);
+    Vec3 points[detail::kMaxClipPoints + 1];
+    double depths[detail::kMaxClipPoints + 1];
+    int count = 0;
+    double deepest = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < m; ++i) {
+      const double d = n.dot(a - clipped[i].p);
+      if (d < -contact_distance) continue;  // this part of the face is beyond reach
+      points[count] = clipped[i].p;
+      depths[count] = d;
+      deepest = std::max(deepest, d);
+      ++count;
+    }
+    const double witness_depth = n.dot(a - witness);
+    if (count == 0 || (witness_over && witness_depth > deepest + 1e-9 * size)) {
+      points[count] = witness;
+      depths[count] = witness_depth;
+      deepest = std::max(deepest, witness_depth);
+      ++count;
+    }
+    if (deepest < -contact_distance) {
+      if (!witness_over) {  // deep pass: void-only, as in pointPatch
+        p.count = 0;
+        return detail::PatchOutcome::kContact;
+      }
+      p.distance = -deepest;
+      return detail::PatchOutcome::kBeyondContactDistance;
+    }
+    int keep[4] = {0, 1, 2, 3};
+    const int kept = count <= 4 ? count : detail::selectManifoldPoints(points, depths, count, n, size, keep);
+    p.count = kept;
+    for (int i = 0; i < kept; ++i) {
+      p.points[i] = points[keep[i]];
+      p.depths[i] = depths[keep[i]];
+    }
+    return detail::PatchOutcome::kContact;
+  }
+};
+
+Status checkCommon(const SupportShape& shape, const Pose& pose, const QuerySettings& settings) {
+  Status s = shape.validate();
+  if (!s) return s;
+  const double m = shape.margin();
+  if (!detail::inRange(m) || m < 0.0)
+    return {ErrorCode::kInvalidShape, "the shape's margin must be finite, >= 0 and <= 1e50, got " + std::to_string(m)};
+  s = detail::checkPose(pose, "shape");
+  if (!s) return s;
+  s = detail::checkContactDistance(settings.contact_distance);
+  if (!s) return s;
+  return detail::checkManifoldSettings(settings);
+}
+
+// The rounded shape's query-frame bounding box from six support calls, and
+// its center in the query frame.
+Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& hi, Vec3& center) {
+  Counters counters;
+  const PlacedCore core{&shape, &pose.rotation, pose.translation, Vec3::Zero(), 1.0, &counters};
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 axis = Vec3::Unit(k);
+    hi[k] = core(axis)[k];
+    lo[k] = core(-axis)[k];
+  }
+  center = pose.apply(shape.center());
+  if (counters.support_not_finite || !lo.allFinite() || !hi.allFinite() || !center.allFinite())
+    return {ErrorCode::kInvalidShape, "the shape's support function (or center) returned a non-finite point"};
+  if (!((hi - lo).minCoeff() >= 0.0))
+    return {ErrorCode::kInvalidShape, "the shape's support function is inconsistent (bounds " +
+                                          detail::describe(lo) + " - " + detail::describe(hi) + ")"};
+  const Vec3 m = Vec3::Constant(shape.margin());
+  lo -= m;
+  hi += m;
+  if (!((hi - lo).norm() > 0.0)) return {ErrorCode::kInvalidShape, "the shape has no extent (a single point)"};
+  if (!detail::inRange(lo) || !detail::inRange(hi))
+    return {ErrorCode::kInvalidShape, "the shape's bounds are beyond +-1e50"};
+  return Status::ok();
+}
+
+Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
+                     const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
+                     QueryScratch& scratch, std::vector<Contact>& contacts) {
+  Counters counters;
+  const double size = (hi - lo).norm();
+  double radius = 0.0;  // the bounding box's farthest corner from the center bounds the core's radius
+  for (int k = 0; k < 8; ++k)
+    radius = std::max(radius, (Vec3((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z()) -
+                               center)
+                                  .norm());
+  ConvexNarrowphase narrowphase{&shape, pose, shape.margin(), settings.contact_distance, size, center, 1.0, radius,
+                                &counters};
+  QueryScratch::Impl& sc = scratch.impl();
+  // Deep penetration: the same query with the core shrunk toward its center
+  // (convex.h); the last scale, the center itself, never intersects.
+  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
+    narrowphase.scale = scale;
+    counters.core_intersects = false;
+    detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+    if (counters.support_not_finite || !counters.core_intersects) break;
+  }
+  if (counters.support_not_finite) {
+    contacts.clear();
+    return {ErrorCode::kInvalidShape, "the shape's support function returned a non-finite point"};
+  }
+  detail::reduceManifolds(contacts, settings, size, sc.manifold);
+  return Status::ok();
+}
+
+}  // namespace
+
+Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
+                               std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                               std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkCommon(shape, pose, settings);
+  if (!s) return s;
+  Vec3 lo, hi, center;
+  s = shapeBounds(shape, pose, lo, hi, center);
+  if (!s) return s;
+  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, scratch, contacts);
+}
+
+Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,
+                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  Status s = checkCommon(shape, pose, settings);
+  if (!s) return s;
+  Vec3 lo, hi, center;
+  s = shapeBounds(shape, pose, lo, hi, center);
+  if (!s) return s;
+  const Vec3 reach = Vec3::Constant(settings.contact_distance);
+  QueryScratch::Impl& sc = scratch.impl();
+  s = gatherCandidates(instances, count, lo - reach, hi + reach, settings.key_mode, scratch, sc.candidates);
+  if (!s) return s;
+  return runCandidates(shape, pose, lo, hi, center, sc.candidates.data(), sc.candidates.size(), settings, scratch,
+                       contacts);
+}
+
+Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,
+                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  const MeshInstance instance{&mesh, Pose::identity()};
+  return collideConvex(&instance, 1, shape, pose, settings, scratch, contacts);
+}
+
+Status collideCylinderCandidates(const Cylinder& cylinder, const Pose& pose, const CandidateTriangle* candidates,
+                                 std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                                 std::vector<Contact>& contacts) {
+  return collideConvexCandidates(CylinderShape(cylinder), pose, candidates, count, settings, scratch, contacts);
+}
+
+Status collideCylinder(const TriangleMesh& mesh, const Cylinder& cylinder, const Pose& pose,
+                       const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  return collideConvex(mesh, CylinderShape(cylinder), pose, settings, scratch, contacts);
+}
+
+Status collideCylinder(const MeshInstance* instances, std::size_t count, const Cylinder& cylinder, const Pose& pose,
+                       const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  return collideConvex(instances, count, CylinderShape(cylinder), pose, settings, scratch, contacts);
+}
+
+}  // namespace meshcontact

@@ -1,0 +1,98 @@
+// The filter stage on external input (filter.h): position keys for triangles
+// from another midphase, and the voided-features filter on patches computed
+// by another narrowphase. Both reuse the query pipeline's own code paths
+// (the StampedMap of the midphase, detail::generateContacts, the manifold
+// reduction), so an adapter gets exactly the filter the queries run.
+#include "meshcontact/filter.h"
+
+#include "manifold_reduction.h"
+#include "scratch.h"
+#include "validate.h"
+#include "voided_features.h"
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace meshcontact {
+
+namespace {
+
+// Same key as the midphase's (query.cpp): the exact bits, -0 folded onto +0.
+detail::PositionKey positionKey(const Vec3& p) {
+  detail::PositionKey key;
+  for (int k = 0; k < 3; ++k) {
+    const double x = p[k] + 0.0;
+    std::memcpy(&key.bits[k], &x, sizeof x);
+  }
+  return key;
+}
+
+Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle& c) {
+  const std::string where = "patch " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) + ", triangle " +
+                            std::to_string(c.triangle) + ")";
+  if (p.count < 1 || p.count > 4)
+    return {ErrorCode::kInvalidSettings, where + ": point count must be 1..4, got " + std::to_string(p.count)};
+  if (!p.normal.allFinite() || !(std::abs(p.normal.norm() - 1.0) <= 1e-6))
+    return {ErrorCode::kInvalidSettings, where + ": normal " + detail::describe(p.normal) + " is not a unit vector"};
+  if (!std::isfinite(p.distance))
+    return {ErrorCode::kInvalidSettings, where + ": distance is not finite"};
+  for (int k = 0; k < p.count; ++k)
+    if (!p.points[k].allFinite() || !std::isfinite(p.depths[k]))
+      return {ErrorCode::kInvalidSettings, where + ": point " + std::to_string(k) + " or its depth is not finite"};
+  return Status::ok();
+}
+
+}  // namespace
+
+Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
+  QueryScratch::Impl& sc = scratch.impl();
+  sc.positions.reset(3 * count);
+  for (std::size_t i = 0; i < count; ++i) {
+    CandidateTriangle& c = candidates[i];
+    for (int k = 0; k < 3; ++k) {
+      if (!c.vertices[k].allFinite())
+        return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
+                                                 ", triangle " + std::to_string(c.triangle) + ") corner " +
+                                                 std::to_string(k) + " is not finite: " +
+                                                 detail::describe(c.vertices[k])};
+      const auto next = static_cast<std::uint32_t>(sc.positions.size());
+      c.keys[k] = sc.positions.insert(positionKey(c.vertices[k]), next);
+    }
+  }
+  return Status::ok();
+}
+
+Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* patches, std::size_t count,
+                     double length_scale, const QuerySettings& settings, QueryScratch& scratch,
+                     std::vector<Contact>& contacts) {
+  contacts.clear();
+  if (settings.trace) settings.trace->clear();
+  if (!std::isfinite(length_scale) || !(length_scale > 0.0))
+    return {ErrorCode::kInvalidSettings, "length_scale must be finite and > 0, got " + std::to_string(length_scale)};
+  Status s = detail::checkManifoldSettings(settings);
+  if (!s) return s;
+  for (std::size_t i = 0; i < count; ++i) {
+    s = checkPatch(patches[i], i, candidates[i]);
+    if (!s) return s;
+  }
+  // The "narrowphase" hands back the caller's patch for its candidate.
+  auto narrowphase = [candidates, patches](const CandidateTriangle& c, detail::Patch& p) {
+    const TrianglePatch& in = patches[&c - candidates];
+    p.feature = in.feature;
+    p.distance = in.distance;
+    p.normal = in.normal;
+    p.count = in.count;
+    for (int k = 0; k < in.count; ++k) {
+      p.points[k] = in.points[k];
+      p.depths[k] = in.depths[k];
+    }
+    return detail::PatchOutcome::kContact;
+  };
+  QueryScratch::Impl& sc = scratch.impl();
+  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  detail::reduceManifolds(contacts, settings, length_scale, sc.manifold);
+  return Status::ok();
+}
+
+}  // namespace meshcontact

@@ -1,0 +1,33 @@
+#pragma once
+// A small 3D convex hull for build time (ConvexHull's core), not for
+// queries: incremental insertion (Preparata-Hong; de Berg et al.,
+// "Computational Geometry", ch. 11, without the conflict graph), O(n^2) for
+// n points, plenty for the few hundred points a support-shape hull has.
+//
+// Only the face *planes* leave this file, and each plane's offset is the
+// point set's exact support value along its normal (max_i n . p_i). So a
+// facet whose normal came out inaccurate (a sliver, or a point within the
+// tolerance of a plane) still yields a valid supporting half-space, never
+// one that cuts the set; what rounding can do is miss a facet by at most the
+// tolerance, which ConvexHull's callers absorb.
+
+#include "meshcontact/geometry.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace meshcontact::detail {
+
+/// normal . x <= offset for every point, with equality for at least one.
+struct HullPlane {
+  Vec3 normal;  // unit
+  double offset;
+};
+
+/// Planes of the facets of conv(points), one per distinct plane (facets
+/// whose unit normals agree within 1e-9 are merged). `tolerance` (absolute,
+/// > 0): a point within it of a facet's plane counts as on it. Returns false
+/// (planes empty) when the points do not span a volume at that tolerance.
+bool hullPlanes(const Vec3* points, std::size_t count, double tolerance, std::vector<HullPlane>& planes);
+
+}  // namespace meshcontact::detail

@@ -1,0 +1,463 @@
+// Box vs mesh: per-region cases against closed forms and an independent
+// distance (alternating projections), the whole pipeline under non-identity
+// poses, a tessellated box against FCL's box-box, the cliff / V-groove /
+// ridge figures, and bad input.
+#include "test_support.h"
+
+#include <meshcontact/shapes.h>
+
+#include <fcl/geometry/shape/box.h>
+#include <fcl/narrowphase/collision.h>
+
+#include <cmath>
+
+namespace meshcontact {
+namespace {
+
+using scenes::SceneMesh;
+using testing::str;
+
+constexpr double kDeg = M_PI / 180.0;
+
+double angleDeg(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)) / kDeg; }
+
+Pose poseFrom(const Mat3& r, const Vec3& t) {
+  Pose p;
+  p.rotation = r;
+  p.translation = t;
+  return p;
+}
+
+// Independent closest point on a triangle (projection, else nearest edge).
+Vec3 refClosestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = (b - a).cross(c - a).normalized();
+  const Vec3 q = p - n.dot(p - a) * n;
+  if (n.dot((b - a).cross(q - a)) >= 0 && n.dot((c - b).cross(q - b)) >= 0 && n.dot((a - c).cross(q - c)) >= 0)
+    return q;
+  Vec3 best;
+  double best_d = INFINITY;
+  const Vec3 v[3] = {a, b, c};
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 e = v[(k + 1) % 3] - v[k];
+    const Vec3 x = v[k] + std::clamp(e.dot(p - v[k]) / e.squaredNorm(), 0.0, 1.0) * e;
+    if ((p - x).norm() < best_d) best_d = (p - x).norm(), best = x;
+  }
+  return best;
+}
+
+// Distance between a box (half extents e, pose) and a triangle by alternating
+// projections between the two convex sets (converges to a closest pair).
+struct RefDistance {
+  double distance;
+  Vec3 normal;  // from the triangle toward the box
+};
+RefDistance refBoxTriangle(const Vec3& e, const Pose& pose, const Vec3 t[3]) {
+  Vec3 x = pose.translation, y;
+  for (int it = 0; it < 20000; ++it) {
+    y = refClosestOnTriangle(x, t[0], t[1], t[2]);
+    x = pose.apply(pose.applyInverse(y).cwiseMax(-e).cwiseMin(e));
+  }
+  y = refClosestOnTriangle(x, t[0], t[1], t[2]);
+  const double d = (x - y).norm();
+  return {d, d > 0 ? Vec3((x - y) / d) : Vec3::Zero()};
+}
+
+// --- One triangle, every region ----------------------------------------------
+
+// Mesh frame: v0 = (0,0,0), v1 = (2,0,0), v2 = (0,2,0), n = +z.
+const Vec3 kTri[3] = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 2, 0)};
+const Vec3 kHalf(0.25, 0.15, 0.1);
+
+struct RegionCase {
+  std::string name;
+  Pose local;       // box in the triangle's frame
+  Vec3 normal;      // expected normal (triangle frame)
+  double depth;     // expected deepest depth
+  Feature feature;  // expected feature
+  int points;       // expected count (0: do not check)
+};
+
+Mat3 frame(const Vec3& x, const Vec3& y) {  // rotation with columns x, y, x X y
+  Mat3 r;
+  r.col(0) = x.normalized();
+  r.col(1) = y.normalized();
+  r.col(2) = r.col(0).cross(r.col(1));
+  return r;
+}
+
+std::vector<RegionCase> regionCases(double gap) {  // gap > 0: separated; < 0: penetrating
+  std::vector<RegionCase> cases;
+  const Vec3 z = Vec3::UnitZ();
+  const Mat3 yaw20 = Eigen::AngleAxisd(20 * kDeg, z).toRotationMatrix();
+  // Face, flat: the bottom face over the triangle, 4 points at depth -gap.
+  cases.push_back({"face_flat", poseFrom(yaw20, Vec3(0.6, 0.5, kHalf.z() + gap)), z, -gap, Feature::face(), 4});
+  // Face, a corner down (generic rotation): depth of the lowest corner.
+  {
+    scenes::Rng rng(99);
+    const Mat3 r = rng.rotation();
+    const double thickness = kHalf.dot(r.row(2).transpose().cwiseAbs());
+    cases.push_back({"face_corner", poseFrom(r, Vec3(0.6, 0.6, thickness + gap)), z, -gap, Feature::face(), 0});
+  }
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 a = kTri[k], b = kTri[(k + 1) % 3];
+    const Vec3 e = (b - a).normalized(), o = e.cross(z);  // o: outward in-plane normal of edge k
+    // Edge, a box face toward it, box straddling the plane: normal o, 2 points.
+    cases.push_back({"edge" + std::to_string(k) + "_face", poseFrom(frame(o, e), 0.5 * (a + b) + (kHalf.x() + gap) * o),
+                     o, -gap, Feature::edge(k), 2});
+    // Edge-edge: a box edge perpendicular to edge k, above and outside it,
+    // along m = (o + z)/sqrt2 (the common normal of the two edges).
+    const Vec3 m = (o + z).normalized(), d = (z - o).normalized();
+    const Mat3 r = frame(d, (e + m).normalized());  // box edge along x, between faces y and z
+    Vec3 edge_mid_local(0, -kHalf.y(), -kHalf.z());  // the edge whose outward corner is -y -z
+    // The box's y and z axes are (e + m)/sqrt2 and (m - e)/sqrt2 (up to sign): the
+    // corner at -y,-z is extreme along -m iff both have a positive m component.
+    if (r.col(2).dot(m) < 0) edge_mid_local.z() = kHalf.z();
+    const Vec3 centre = 0.5 * (a + b) + gap * m - r * edge_mid_local;
+    cases.push_back({"edge" + std::to_string(k) + "_edge", poseFrom(r, centre), m, -gap, Feature::edge(k), 1});
+  }
+  for (int k = 0; k < 3; ++k) {
+    // Vertex: a box face toward the vertex's outward bisector.
+    const Vec3 v = kTri[k];
+    const Vec3 bis = ((v - kTri[(k + 1) % 3]).normalized() + (v - kTri[(k + 2) % 3]).normalized()).normalized();
+    cases.push_back({"vertex" + std::to_string(k), poseFrom(frame(bis, z.cross(bis)), v + (kHalf.x() + gap) * bis), bis,
+                     -gap, Feature::vertex(k), 0});
+  }
+  return cases;
+}
+
+void checkRegion(const RegionCase& rc, double contact_distance, std::uint64_t seed) {
+  scenes::Rng rng(seed);
+  const Pose mesh_pose = poseFrom(rng.rotation(), Vec3(-1.0, 0.5, 2.0));
+  SceneMesh m;
+  m.addTriangle(m.addVertex(kTri[0]), m.addVertex(kTri[1]), m.addVertex(kTri[2]));
+  TriangleMesh mesh = testing::buildMesh(m);
+  const MeshInstance instance{&mesh, mesh_pose};
+  const Pose pose = mesh_pose * rc.local;
+  QuerySettings settings;
+  settings.contact_distance = contact_distance;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  ASSERT_TRUE(collideBox(&instance, 1, Box{kHalf}, pose, settings, scratch, contacts).isOk());
+  Vec3 q[3];
+  for (int k = 0; k < 3; ++k) q[k] = mesh_pose.apply(kTri[k]);
+  const std::string config = rc.name + " seed " + std::to_string(seed) + " box centre (triangle frame) " +
+                             str(rc.local.translation);
+  ASSERT_FALSE(contacts.empty()) << config;
+  if (rc.points > 0) {
+    EXPECT_EQ(static_cast<int>(contacts.size()), rc.points) << config;
+  }
+  double deepest = -INFINITY;
+  for (const Contact& c : contacts) {
+    deepest = std::max(deepest, c.depth);
+    EXPECT_EQ(c.feature, rc.feature) << config << " got " << toString(c.feature.type) << int(c.feature.index);
+    EXPECT_LE(angleDeg(c.normal, mesh_pose.rotation * rc.normal), 1e-9) << config << " normal " << str(c.normal);
+    // On the box's surface ...
+    const Vec3 local = pose.applyInverse(c.point);
+    EXPECT_LE((local.cwiseAbs() - kHalf).maxCoeff(), 1e-12) << config;
+    EXPECT_GE((local.cwiseAbs() - kHalf).maxCoeff(), -1e-12) << config;
+    // ... and `depth` along the normal from the triangle.
+    const Vec3 on_triangle = c.point + c.depth * c.normal;
+    EXPECT_LE((on_triangle - refClosestOnTriangle(on_triangle, q[0], q[1], q[2])).norm(), 1e-12) << config;
+  }
+  EXPECT_NEAR(deepest, rc.depth, 1e-12) << config;
+  // Independent check: separated, the distance is the gap; penetrating, moving
+  // the box by depth + 1e-3 along the normal separates it by 1e-3 exactly.
+  const Contact* top = &contacts[0];
+  for (const Contact& c : contacts)
+    if (c.depth > top->depth) top = &c;
+  Pose moved = pose;
+  if (top->depth > 0) moved.translation += (top->depth + 1e-3) * top->normal;
+  const RefDistance ref = refBoxTriangle(kHalf, moved, q);
+  EXPECT_NEAR(ref.distance, top->depth > 0 ? 1e-3 : -top->depth, 1e-7) << config;
+  EXPECT_LE(angleDeg(ref.normal, top->normal), 0.01) << config << " reference normal " << str(ref.normal);
+}
+
+TEST(BoxRegions, SeparatedWithinContactDistance) {
+  std::uint64_t seed = 1;
+  for (const RegionCase& rc : regionCases(0.04)) checkRegion(rc, 0.05, seed++);
+}
+
+TEST(BoxRegions, Penetrating) {
+  std::uint64_t seed = 50;
+  for (const RegionCase& rc : regionCases(-0.03)) checkRegion(rc, 0.0, seed++);
+}
+
+TEST(BoxRegions, BeyondContactDistanceAndBehind) {
+  SceneMesh m;
+  m.addTriangle(m.addVertex(kTri[0]), m.addVertex(kTri[1]), m.addVertex(kTri[2]));
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  QuerySettings settings;
+  settings.contact_distance = 0.03;
+  for (const RegionCase& rc : regionCases(0.04)) {
+    ASSERT_TRUE(collideBox(mesh, Box{kHalf}, rc.local, settings, scratch, contacts).isOk());
+    EXPECT_TRUE(contacts.empty()) << rc.name;
+  }
+  // One-sided, the sphere's rule on the box's centre (shapes.h): entirely
+  // behind the plane, or half through it with the centre behind: culled,
+  // even though the box overlaps the triangle; the centre just in front: a
+  // contact pushing along +n by the whole depth of the bottom face.
+  std::vector<TraceEntry> trace;
+  settings.trace = &trace;
+  for (const double z : {-0.11, -0.05, -1e-6}) {
+    ASSERT_TRUE(collideBox(mesh, Box{kHalf}, poseFrom(Mat3::Identity(), Vec3(0.6, 0.5, z)), settings, scratch,
+                           contacts)
+                    .isOk());
+    EXPECT_TRUE(contacts.empty()) << "centre at z = " << z;
+    ASSERT_EQ(trace.size(), 1u);
+    EXPECT_EQ(trace[0].verdict, Verdict::kBackFacing) << "centre at z = " << z;
+  }
+  ASSERT_TRUE(collideBox(mesh, Box{kHalf}, poseFrom(Mat3::Identity(), Vec3(0.6, 0.5, 0.01)), settings, scratch,
+                         contacts)
+                  .isOk());
+  ASSERT_EQ(contacts.size(), 4u);
+  for (const Contact& c : contacts) {
+    EXPECT_EQ(c.normal, Vec3::UnitZ());
+    EXPECT_NEAR(c.depth, 0.09, 1e-12);
+  }
+}
+
+// --- Consistency with FCL (box-box, GST_LIBCCD) on a tessellated box ---------
+
+SceneMesh tessellatedBox(const Vec3& b, double cell, std::uint64_t seed) {
+  SceneMesh m;
+  scenes::Rng rng(seed);
+  const int nx = static_cast<int>(std::lround(2 * b.x() / cell)), ny = static_cast<int>(std::lround(2 * b.y() / cell)),
+            nz = static_cast<int>(std::lround(2 * b.z() / cell));
+  const Vec3 X(2 * b.x(), 0, 0), Y(0, 2 * b.y(), 0), Z(0, 0, 2 * b.z());
+  scenes::addGridPatch(m, Vec3(b.x(), -b.y(), -b.z()), Y, Z, ny, nz, rng, 0.2);   // +x
+  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Z, Y, nz, ny, rng, 0.2);  // -x
+  scenes::addGridPatch(m, Vec3(-b.x(), b.y(), -b.z()), Z, X, nz, nx, rng, 0.2);   // +y
+  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), X, Z, nx, nz, rng, 0.2);  // -y
+  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), b.z()), X, Y, nx, ny, rng, 0.2);   // +z
+  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Y, X, ny, nx, rng, 0.2);  // -z
+  return scenes::weld(m);
+}
+
+TEST(BoxConsistency, TessellatedBoxAgreesWithFcl) {
+  const Vec3 half(1.0, 0.8, 0.6);
+  TriangleMesh mesh = testing::buildMesh(tessellatedBox(half, 0.2, 21));
+  ASSERT_FALSE(mesh.hasDuplicateVertices());
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  scenes::Rng rng(31);
+  auto big = std::make_shared<fcl::Boxd>(2 * half);
+  fcl::CollisionObjectd o1(big, fcl::Transform3d::Identity());
+  for (int trial = 0; trial < 400; ++trial) {
+    const Box box{Vec3(rng.uniform(0.05, 0.2), rng.uniform(0.05, 0.2), rng.uniform(0.05, 0.2))};
+    const double size = box.half_extents.norm();
+    const int axis = static_cast<int>(rng.next() % 3);
+    const double sign = (rng.next() & 1) ? 1.0 : -1.0;
+    Vec3 normal = Vec3::Zero();
+    normal[axis] = sign;
+    Vec3 centre;
+    for (int k = 0; k < 3; ++k) centre[k] = rng.uniform(-half[k] + 2 * size, half[k] - 2 * size);
+    const Mat3 rot = rng.rotation();
+    const double reach_down = box.half_extents.dot((rot.transpose() * normal).cwiseAbs());
+    const double pen = rng.uniform(0.02, 0.2) * box.half_extents.minCoeff();
+    centre[axis] = sign * (half[axis] + reach_down - pen);
+    const Pose pose = poseFrom(rot, centre);
+    ASSERT_TRUE(collideBox(mesh, box, pose, QuerySettings(), scratch, contacts).isOk());
+    fcl::Transform3d tf = fcl::Transform3d::Identity();
+    tf.linear() = rot;
+    tf.translation() = centre;
+    fcl::CollisionObjectd o2(std::make_shared<fcl::Boxd>(2 * box.half_extents), tf);
+    fcl::CollisionRequestd request(1, true);
+    request.gjk_solver_type = fcl::GST_LIBCCD;
+    fcl::CollisionResultd result;
+    fcl::collide(&o1, &o2, request, result);
+    const std::string config = "trial " + std::to_string(trial) + " Box{" + str(box.half_extents) + "} centre " +
+                               str(centre);
+    ASSERT_EQ(result.numContacts(), 1u) << config;
+    ASSERT_FALSE(contacts.empty()) << config;
+    const Contact* deepest = &contacts[0];
+    for (const Contact& c : contacts)
+      if (c.depth > deepest->depth) deepest = &c;
+    const fcl::Contactd& ref = result.getContact(0);  // normal from o1 (the big box) to o2
+    EXPECT_LE(angleDeg(deepest->normal, ref.normal), 1.0) << config << " fcl " << str(ref.normal);
+    EXPECT_LE(std::abs(deepest->depth - ref.penetration_depth), 0.01 * size) << config << " fcl " << ref.penetration_depth;
+    EXPECT_NEAR(deepest->depth, pen, 1e-9) << config;  // closed form of this placement
+  }
+}
+
+// --- Figures -----------------------------------------------------------------
+
+std::vector<Contact> runOn(const SceneMesh& m, const Box& box, const Pose& pose) {
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  EXPECT_TRUE(collideBox(mesh, box, pose, QuerySettings(), scratch, contacts).isOk());
+  return contacts;
+}
+
+void expectNormals(const std::vector<Contact>& contacts, const std::vector<Vec3>& allowed, const std::string& what) {
+  ASSERT_FALSE(contacts.empty()) << what;
+  std::vector<bool> seen(allowed.size(), false);
+  for (const Contact& c : contacts) {
+    bool ok = false;
+    for (std::size_t k = 0; k < allowed.size(); ++k)
+      if (angleDeg(c.normal, allowed[k]) < 1e-6) ok = true, seen[k] = true;
+    EXPECT_TRUE(ok) << what << ": unexpected normal " << str(c.normal) << " depth " << c.depth;
+  }
+  for (std::size_t k = 0; k < allowed.size(); ++k) EXPECT_TRUE(seen[k]) << what << ": no contact with " << str(allowed[k]);
+}
+
+TEST(BoxFigures, Cliff) {
+  // scenes::step: upper floor z = 1 (x < 0), wall facing +x at x = 0, lower floor z = 0.
+  const SceneMesh m = scenes::step(2.0, 1.0, 0.25, 8);
+  const Box box{Vec3(0.2, 0.15, 0.1)};
+  // Resting on the upper floor, overhanging the cliff: +z only, 4 points
+  // (the cliff edge adds nothing: reference §2).
+  const auto over = runOn(m, box, poseFrom(Mat3::Identity(), Vec3(-0.1, 0.05, 1.09)));
+  expectNormals(over, {Vec3::UnitZ()}, "overhanging the cliff");
+  EXPECT_EQ(over.size(), 4u);
+  // On the lower floor, pressed against the wall: +z and +x, nothing between.
+  expectNormals(runOn(m, box, poseFrom(Mat3::Identity(), Vec3(0.19, 0.05, 0.09))), {Vec3::UnitZ(), Vec3::UnitX()},
+                "in the corner under the cliff");
+  // Beside the wall, below the top, poking 0.01 into the upper floor's edge
+  // from the side: pushed sideways (+x), not up onto the ledge.
+  expectNormals(runOn(m, box, poseFrom(Mat3::Identity(), Vec3(0.19, 0.05, 0.95))), {Vec3::UnitX()}, "beside the wall");
+  // A tall box beside the wall, its centre above the ledge (so the upper
+  // floor is not culled), its bottom face 0.25 below the ledge, poking 0.01
+  // into the wall: pushed out sideways (+x, 0.01), not up onto the ledge
+  // (+z, 0.25). The upper floor's triangles reach the box only along the
+  // cliff edge, which the wall's face contacts void.
+  const Box tall{Vec3(0.2, 0.15, 0.3)};
+  for (const double y : {0.05, 0.3, -0.4}) {
+    const auto beside = runOn(m, tall, poseFrom(Mat3::Identity(), Vec3(0.19, y, 1.05)));
+    expectNormals(beside, {Vec3::UnitX()}, "tall box beside the wall, y = " + std::to_string(y));
+    for (const Contact& c : beside) EXPECT_NEAR(c.depth, 0.01, 1e-12) << "tall box beside the wall";
+  }
+  // The same box tilted a little about y (its bottom toward the wall) and
+  // about x: still only the wall's normal.
+  const Mat3 tilt = Eigen::AngleAxisd(0.05, Vec3::UnitY()).toRotationMatrix() *
+                    Eigen::AngleAxisd(0.03, Vec3::UnitX()).toRotationMatrix();
+  const double reach = tall.half_extents.dot(tilt.row(0).transpose().cwiseAbs());  // half-width along x
+  expectNormals(runOn(m, tall, poseFrom(tilt, Vec3(reach - 0.01, 0.05, 1.05))), {Vec3::UnitX()},
+                "tilted tall box beside the wall");
+}
+
+TEST(BoxFigures, VGroove) {
+  // 30-degree slopes: left (x < 0) normal (sin30, 0, cos30), right (-sin30, 0, cos30).
+  const SceneMesh m = scenes::vGroove(2.0, 30.0, 0.25, 9);
+  const Vec3 left(0.5, 0, std::sqrt(0.75)), right(-0.5, 0, std::sqrt(0.75));
+  // A box resting in the groove on its two bottom edges, each 0.01 below its
+  // slope vertically: two line contacts, one per slope normal, depth 0.01
+  // cos30 along the normals at the edges.
+  //
+  // Each bottom edge sinks into its slope along a strip of the bottom face
+  // 0.01 / tan30 = 0.0173 wide. Every triangle of the slope over that strip
+  // contributes the corners of its piece of the strip (the incident face
+  // clipped to its prism, Box2D / Jolt style): on the edge at full depth, and
+  // where the triangle's sides cross the strip, shallower. Those crossings
+  // are genuine points of the box below the slope; how many there are
+  // depends on the tessellation, so the manifold per slope is 2 to 4 points,
+  // not exactly the 2 edge ends an untessellated slope would give.
+  const Box box{Vec3(0.3, 0.2, 0.2)};
+  const double rise = 0.3 * std::tan(30 * kDeg);
+  const Pose pose = poseFrom(Mat3::Identity(), Vec3(0, 0.05, 0.2 + rise - 0.01));
+  const auto contacts = runOn(m, box, pose);
+  expectNormals(contacts, {left, right}, "box in the groove");
+  const double full = 0.01 * std::sqrt(0.75), strip = 0.01 / std::tan(30 * kDeg);
+  for (const Vec3& slope : {left, right}) {
+    int count = 0;
+    double deepest = -INFINITY, y_lo = INFINITY, y_hi = -INFINITY;
+    for (const Contact& c : contacts) {
+      if (angleDeg(c.normal, slope) > 1e-6) continue;
+      ++count;
+      deepest = std::max(deepest, c.depth);
+      EXPECT_GE(c.depth, 0.0) << str(c.point);
+      EXPECT_LE(c.depth, full + 1e-12) << str(c.point);
+      // On the bottom face, within the sunk strip along its edge on this slope's side.
+      const Vec3 local = pose.applyInverse(c.point);
+      EXPECT_NEAR(local.z(), -0.2, 1e-12) << str(c.point);
+      EXPECT_GE(-slope.x() / 0.5 * local.x(), 0.3 - strip - 1e-9) << str(c.point);
+      // Its depth is how far it is below the slope along the normal.
+      const double below = 0.01 - (0.3 - std::abs(local.x())) * std::tan(30 * kDeg);  // vertically
+      EXPECT_NEAR(c.depth, below * std::sqrt(0.75), 1e-9) << str(c.point);
+      y_lo = std::min(y_lo, local.y());
+      y_hi = std::max(y_hi, local.y());
+    }
+    EXPECT_GE(count, 2) << str(slope);
+    EXPECT_LE(count, 4) << str(slope);
+    EXPECT_NEAR(deepest, full, 1e-9) << str(slope);
+    EXPECT_NEAR(y_hi - y_lo, 0.4, 1e-9) << str(slope) << ": the line contact spans the whole edge";
+  }
+}
+
+TEST(BoxFigures, Ridge) {
+  // Apex along y at x = 0, z = 0; left slope normal (-sin30, 0, cos30), right (sin30, 0, cos30).
+  const SceneMesh m = scenes::ridge(2.0, 30.0, 0.25, 10);
+  const Vec3 left(-0.5, 0, std::sqrt(0.75)), right(0.5, 0, std::sqrt(0.75));
+  // Lying flat across the apex, sunk 0.01. Along a slope's own normal the box
+  // must travel 0.01 / cos30 = 0.0115 to clear that slope's triangles (the
+  // box spans the apex edge, which it must rise 0.01 above), more than the
+  // 0.01 straight up: every apex triangle reports (0, 0, 1), depth 0.01, on
+  // the apex edge (inside the convex apex's normal cone); 2 points after the
+  // reduction (the bottom face's line along the apex).
+  const Box box{Vec3(0.3, 0.2, 0.1)};
+  const auto flat = runOn(m, box, poseFrom(Mat3::Identity(), Vec3(0, 0.05, 0.09)));
+  expectNormals(flat, {Vec3::UnitZ()}, "flat on the ridge");
+  EXPECT_EQ(flat.size(), 2u);
+  for (const Contact& c : flat) EXPECT_NEAR(c.depth, 0.01, 1e-12);
+  // Resting on the left slope, parallel to it: its normal only, 4 points.
+  const Mat3 tilt = Eigen::AngleAxisd(-30 * kDeg, Vec3::UnitY()).toRotationMatrix();  // local z -> left normal
+  ASSERT_LE(angleDeg(tilt.col(2), left), 1e-9);
+  const Vec3 on_slope = Vec3(-0.8, 0, -0.8 * std::tan(30 * kDeg)) + 0.09 * left;
+  const auto slope = runOn(m, box, poseFrom(tilt, on_slope));
+  expectNormals(slope, {left}, "on a slope");
+  EXPECT_EQ(slope.size(), 4u);
+}
+
+// --- Bad input ---------------------------------------------------------------
+
+TEST(BoxBadInput, Rejected) {
+  SceneMesh m;
+  m.addTriangle(m.addVertex(kTri[0]), m.addVertex(kTri[1]), m.addVertex(kTri[2]));
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  const Pose ok_pose = poseFrom(Mat3::Identity(), Vec3(0.5, 0.5, 0.05));
+  const auto code = [&](const Box& b, const Pose& p, const QuerySettings& s) {
+    contacts.assign(1, Contact{});
+    const Status st = collideBox(mesh, b, p, s, scratch, contacts);
+    EXPECT_TRUE(contacts.empty());
+    if (!st) {
+      EXPECT_FALSE(st.message().empty());
+    }
+    return st.code();
+  };
+  const QuerySettings settings;
+  EXPECT_EQ(code(Box{Vec3(-0.1, 0.1, 0.1)}, ok_pose, settings), ErrorCode::kInvalidShape);
+  EXPECT_EQ(code(Box{Vec3(0.1, NAN, 0.1)}, ok_pose, settings), ErrorCode::kInvalidShape);
+  EXPECT_EQ(code(Box{Vec3(0.1, 0.1, INFINITY)}, ok_pose, settings), ErrorCode::kInvalidShape);
+  EXPECT_EQ(code(Box{Vec3::Zero()}, ok_pose, settings), ErrorCode::kInvalidShape);
+  Pose bad = ok_pose;
+  bad.rotation(1, 2) = NAN;
+  EXPECT_EQ(code(Box{Vec3(0.1, 0.1, 0.1)}, bad, settings), ErrorCode::kInvalidPose);
+  bad = ok_pose;
+  bad.rotation = -Mat3::Identity();  // orthonormal but a reflection
+  EXPECT_EQ(code(Box{Vec3(0.1, 0.1, 0.1)}, bad, settings), ErrorCode::kInvalidPose);
+  QuerySettings s = settings;
+  s.contact_distance = NAN;
+  EXPECT_EQ(code(Box{Vec3(0.1, 0.1, 0.1)}, ok_pose, s), ErrorCode::kInvalidSettings);
+  s = settings;
+  s.manifold_angle_deg = -1;
+  EXPECT_EQ(code(Box{Vec3(0.1, 0.1, 0.1)}, ok_pose, s), ErrorCode::kInvalidSettings);
+  // A flat box (one zero extent) is a rectangle: valid, and no NaN comes out
+  // (0.01 above the face, within a contact distance of 0.02).
+  QuerySettings near = settings;
+  near.contact_distance = 0.02;
+  ASSERT_TRUE(collideBox(mesh, Box{Vec3(0.1, 0.1, 0.0)}, poseFrom(Mat3::Identity(), Vec3(0.5, 0.5, 0.01)), near,
+                         scratch, contacts)
+                  .isOk());
+  ASSERT_FALSE(contacts.empty());
+  for (const Contact& c : contacts) EXPECT_TRUE(c.point.allFinite() && c.normal.allFinite() && std::isfinite(c.depth));
+  const CandidateTriangle candidate{{kTri[0], kTri[1], kTri[2]}, {0, 1, 2}, 0, 0};
+  EXPECT_EQ(collideBoxCandidates(Box{Vec3::Zero()}, ok_pose, &candidate, 1, settings, scratch, contacts).code(),
+            ErrorCode::kInvalidShape);
+}
+
+}  // namespace
+}  // namespace meshcontact

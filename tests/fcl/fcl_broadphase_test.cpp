@@ -1,0 +1,202 @@
+// BroadphaseCollector with FCL's DynamicAABBTreeCollisionManager: a floor
+// made of 16 separate tile models and shapes over it. Per shape, the tiles it
+// touches are filtered together: the contacts are the core's multi-mesh
+// query (MeshInstance list), and no ghost normal appears at the seams, where
+// querying each tile on its own (the drop-in per pair) does give ghosts.
+#include "fcl_test_support.h"
+
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+
+#include <map>
+#include <set>
+
+namespace meshcontact::fcltest {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+struct TiledWorld {
+  std::vector<SceneMesh> scenes = scenes::tiledFloor(4, 4, 2, 0.5, 61);
+  std::vector<TriangleMesh> core_meshes;
+  std::vector<std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>>> models;
+  std::vector<std::unique_ptr<::fcl::CollisionObjectd>> tiles;
+  Pose floor_pose;  // every tile's transform (equal transforms keep the seams bitwise equal)
+
+  explicit TiledWorld(const Pose& pose) : floor_pose(pose) {
+    for (const SceneMesh& s : scenes) {
+      core_meshes.push_back(testing::buildMesh(s));
+      models.push_back(makeModel<::fcl::OBBRSSd>(s));
+      tiles.push_back(std::make_unique<::fcl::CollisionObjectd>(models.back(), toTransform(pose)));
+    }
+  }
+  int tileOf(const ::fcl::CollisionGeometryd* g) const {
+    for (std::size_t i = 0; i < models.size(); ++i)
+      if (models[i].get() == g) return static_cast<int>(i);
+    return -1;
+  }
+};
+
+TEST(Broadphase, TilesAreOneSurface) {
+  scenes::Rng rng(62);
+  const TiledWorld world(randomPose(rng, 2.0));
+  std::vector<MeshInstance> instances;
+  for (const TriangleMesh& m : world.core_meshes) instances.push_back({&m, Pose::identity()});
+  const Vec3 up = world.floor_pose.rotation * Vec3::UnitZ();
+
+  fcl::ModelCache cache;
+  for (const auto& m : world.models) ASSERT_TRUE(cache.add(m.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  int rounds = 0, shapes_in_contact = 0, seam_groups = 0, per_pair_ghosts = 0;
+  fcl::Scratch scratch;
+  QueryScratch core_scratch;
+  std::vector<Contact> core_contacts;
+  for (; rounds < 100; ++rounds) {
+    // 12 shapes over the floor, each shallowly in contact or just above it.
+    std::vector<ShapeCase> cases;
+    std::vector<Pose> locals;
+    std::vector<std::unique_ptr<::fcl::CollisionObjectd>> shapes;
+    for (int k = 0; k < 12; ++k) {
+      const ShapeCase shape = allShapes()[k % 3];  // sphere, capsule, box
+      Pose local;
+      local.rotation = rng.rotation();
+      const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
+      local.translation =
+          Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), low + rng.uniform(-shape.oracleDepth(), 0.02));
+      if (shape.kind == Kind::kSphere) local.translation.z() = rng.uniform(0.01, 1.0) * shape.dims.x();
+      cases.push_back(shape);
+      locals.push_back(local);
+      shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * local)));
+    }
+    ::fcl::DynamicAABBTreeCollisionManagerd manager;
+    for (const auto& t : world.tiles) manager.registerObject(t.get());
+    for (const auto& s : shapes) manager.registerObject(s.get());
+    manager.setup();
+    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(1000, true));
+    manager.collide(&collector, fcl::BroadphaseCollector::callback);
+    const Status s = collector.finish();
+    ASSERT_TRUE(s.isOk()) << s.message();
+    // The same through a ModelCache: the same contacts.
+    fcl::BroadphaseCollector cached_collector(::fcl::CollisionRequestd(1000, true), cached);
+    manager.collide(&cached_collector, fcl::BroadphaseCollector::callback);
+    ASSERT_TRUE(cached_collector.finish().isOk());
+    ASSERT_EQ(cached_collector.contacts().size(), collector.contacts().size());
+    for (std::size_t i = 0; i < collector.contacts().size(); ++i) {
+      EXPECT_EQ(cached_collector.contacts()[i].o1, collector.contacts()[i].o1);
+      EXPECT_EQ(compareContacts({cached_collector.contacts()[i].contact}, {collector.contacts()[i].contact}, 0.0), "");
+    }
+
+    // Contacts per shape (grouped) and the shape-vs-shape ones (forwarded).
+    std::map<const ::fcl::CollisionObjectd*, std::vector<::fcl::Contactd>> per_shape;
+    for (const fcl::ObjectContact& c : collector.contacts()) {
+      if (world.tileOf(c.o1->collisionGeometry().get()) < 0) continue;  // a forwarded shape-shape pair
+      EXPECT_EQ(c.contact.o1, c.o1->collisionGeometry().get());
+      EXPECT_EQ(c.contact.o2, c.o2->collisionGeometry().get());
+      per_shape[c.o2].push_back(c.contact);
+    }
+    for (std::size_t k = 0; k < shapes.size(); ++k) {
+      const ShapeCase& shape = cases[k];
+      const ::fcl::CollisionGeometryd* g = shapes[k]->collisionGeometry().get();
+      const std::string config = std::string(shape.name) + ", round " + std::to_string(rounds) + ", shape " +
+                                 std::to_string(k) + " at " + testing::str(locals[k].translation) +
+                                 " in the floor's frame";
+      // The core's query over all 16 tiles as one surface.
+      ASSERT_TRUE(shape.core(instances.data(), instances.size(), *g, world.floor_pose.inverse() * (world.floor_pose * locals[k]),
+                             QuerySettings(), core_scratch, core_contacts)
+                      .isOk());
+      std::vector<::fcl::Contactd> expected;
+      std::set<std::uint32_t> meshes;
+      for (const Contact& c : core_contacts) {
+        expected.push_back(expectedContact(c, world.floor_pose, true, world.models[c.mesh].get(), g));
+        meshes.insert(c.mesh);
+      }
+      const std::vector<::fcl::Contactd>& got = per_shape[shapes[k].get()];
+      // Compared by geometry: where two triangles of different tiles give the
+      // same point (a patch clipped at a seam), the manifold reduction keeps
+      // the one of the lower mesh index, and the collector numbers the tiles
+      // in the manager's order, not in this list's.
+      auto unlabelled = [](std::vector<::fcl::Contactd> v) {
+        for (auto& c : v) c.o1 = nullptr, c.b1 = 0;
+        return v;
+      };
+      EXPECT_EQ(compareContacts(unlabelled(got), unlabelled(expected), 1e-12), "") << config;
+      shapes_in_contact += !got.empty();
+      for (const auto& c : got)
+        EXPECT_LE(std::atan2(c.normal.cross(up).norm(), c.normal.dot(up)), 2.0 * kDeg)
+            << "ghost at a seam: " << str(c) << "\n" << config;
+
+      // Each tile on its own (what calling the drop-in per pair gives).
+      std::set<int> touched;
+      for (const auto& c : got) touched.insert(world.tileOf(c.o1));
+      int near_tiles = 0;
+      for (const auto& tile : world.tiles) {
+        ::fcl::CollisionResultd r;
+        ASSERT_TRUE(fcl::collide(tile.get(), shapes[k].get(), ::fcl::CollisionRequestd(1000, true), r,
+                                 fcl::Options(), scratch)
+                        .isOk());
+        near_tiles += r.numContacts() > 0;
+        for (const auto& c : contactsOf(r))
+          per_pair_ghosts += std::atan2(c.normal.cross(up).norm(), c.normal.dot(up)) > 2.0 * kDeg;
+      }
+      seam_groups += near_tiles > 1;
+    }
+    if (::testing::Test::HasFailure()) return;
+  }
+  std::printf("%d rounds of 12 shapes: %d shapes in contact, %d across a seam (several tiles); per-pair queries "
+              "would give %d ghost normals there, the collector 0\n",
+              rounds, shapes_in_contact, seam_groups, per_pair_ghosts);
+  EXPECT_GT(seam_groups, 100);       // the seams are exercised
+  EXPECT_GT(per_pair_ghosts, 10);    // and per-pair queries do show the ghosts
+}
+
+TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {
+  const TiledWorld world(Pose::identity());
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = Vec3(1.0, 1.0, 1.5);
+  ::fcl::CollisionObjectd a(std::make_shared<::fcl::Sphered>(0.3), tf);
+  tf.translation().x() += 0.4;
+  ::fcl::CollisionObjectd b(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), tf);
+  ::fcl::DynamicAABBTreeCollisionManagerd manager;
+  for (const auto& t : world.tiles) manager.registerObject(t.get());
+  manager.registerObject(&a);
+  manager.registerObject(&b);
+  manager.setup();
+  fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(10, true));
+  manager.collide(&collector, fcl::BroadphaseCollector::callback);
+  ::fcl::CollisionResultd result;
+  ASSERT_TRUE(collector.finish(result).isOk());
+  // The shapes are above the floor: only the sphere-box pair and the tiles'
+  // seams (mesh-vs-mesh, forwarded as well) touch; FCL's own answer comes
+  // back for the sphere and the box.
+  std::vector<fcl::ObjectContact> shape_pairs;
+  for (const fcl::ObjectContact& c : collector.contacts()) {
+    if (c.o1 == &a || c.o1 == &b || c.o2 == &a || c.o2 == &b) shape_pairs.push_back(c);
+    else EXPECT_TRUE(world.tileOf(c.contact.o1) >= 0 && world.tileOf(c.contact.o2) >= 0);
+  }
+  ASSERT_EQ(shape_pairs.size(), 1u);
+  EXPECT_EQ(result.numContacts(), collector.contacts().size());
+  const fcl::ObjectContact& c = shape_pairs[0];
+  const bool sphere_first = c.o1 == &a;
+  ::fcl::CollisionResultd fcl_result;
+  ::fcl::collide(sphere_first ? &a : &b, sphere_first ? &b : &a, ::fcl::CollisionRequestd(10, true), fcl_result);
+  EXPECT_EQ(compareContacts({c.contact}, contactsOf(fcl_result), 0.0), "");
+
+  // clear() forgets the pairs; a bad shape is reported by finish().
+  collector.clear();
+  EXPECT_TRUE(collector.finish().isOk());
+  EXPECT_TRUE(collector.contacts().empty());
+  ::fcl::CollisionObjectd bad(std::make_shared<::fcl::Sphered>(-1.0));
+  bad.setTranslation(Vec3(1.0, 1.0, 0.0));
+  bad.computeAABB();
+  ::fcl::CollisionObjectd good(std::make_shared<::fcl::Sphered>(0.3));
+  good.setTranslation(Vec3(2.0, 2.0, 0.2));
+  good.computeAABB();
+  fcl::BroadphaseCollector::callback(world.tiles[0].get(), &bad, &collector);
+  fcl::BroadphaseCollector::callback(world.tiles[10].get(), &good, &collector);
+  const Status s = collector.finish();
+  EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << s.message();
+  EXPECT_FALSE(collector.contacts().empty()) << "the other shapes are still processed";
+}
+
+}  // namespace
+}  // namespace meshcontact::fcltest

@@ -1,0 +1,419 @@
+// The drop-in collide(): every supported BV type gives the same contacts,
+// other pairs are forwarded to fcl::collide unchanged, FCL's request fields
+// are honoured, argument order, threads, and bad input (clear errors, no
+// crash, nothing appended).
+#include "fcl_test_support.h"
+
+#include <thread>
+
+namespace meshcontact::fcltest {
+namespace {
+
+SceneMesh terrain() { return scenes::sineTerrain(10, 10, 0.5, 0.4, 3.0, 51); }
+
+::fcl::CollisionRequestd contactsRequest() { return ::fcl::CollisionRequestd(1000, true); }
+
+// --- BV types ------------------------------------------------------------------
+
+template <class BV>
+std::vector<::fcl::Contactd> query(const std::shared_ptr<::fcl::BVHModel<BV>>& model, const Pose& mesh_pose,
+                                   const std::shared_ptr<::fcl::CollisionGeometryd>& shape, const Pose& shape_pose,
+                                   fcl::Scratch& scratch) {
+  ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape, toTransform(shape_pose));
+  ::fcl::CollisionResultd result;
+  const Status status = fcl::collide(&m, &s, contactsRequest(), result, fcl::Options(), scratch);
+  EXPECT_TRUE(status.isOk()) << status.message();
+  // Geometry pointers differ between models: compare the rest.
+  std::vector<::fcl::Contactd> out = contactsOf(result);
+  for (auto& c : out) c.o1 = nullptr;
+  return out;
+}
+
+TEST(DropIn, EveryBvTypeGivesTheSameContacts) {
+  const SceneMesh mesh = terrain();
+  auto aabb = makeModel<::fcl::AABBd>(mesh);
+  auto obb = makeModel<::fcl::OBBd>(mesh);
+  auto rss = makeModel<::fcl::RSSd>(mesh);
+  auto kios = makeModel<::fcl::kIOSd>(mesh);
+  auto obbrss = makeModel<::fcl::OBBRSSd>(mesh);
+  scenes::Rng rng(52);
+  fcl::Scratch scratch;
+  int with_contacts = 0;
+  for (const ShapeCase& shape : {allShapes()[0], allShapes()[1], allShapes()[2]}) {
+    const auto geometry = shape.make();
+    for (int i = 0; i < 1000; ++i) {
+      const Pose mesh_pose = randomPose(rng, 2.0);
+      Pose local;
+      local.rotation = rng.rotation();
+      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.5, 0.7));
+      const Pose world = mesh_pose * local;
+      const auto reference = query(obbrss, mesh_pose, geometry, world, scratch);
+      with_contacts += !reference.empty();
+      const std::string config = std::string(shape.name) + " pose " + std::to_string(i) + " at " +
+                                 testing::str(local.translation) + " in the mesh frame";
+      EXPECT_EQ(compareContacts(query(aabb, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "AABB " << config;
+      EXPECT_EQ(compareContacts(query(obb, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "OBB " << config;
+      EXPECT_EQ(compareContacts(query(rss, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "RSS " << config;
+      EXPECT_EQ(compareContacts(query(kios, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "kIOS " << config;
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+  EXPECT_GT(with_contacts, 1000);
+}
+
+TEST(DropIn, ModelCacheGivesTheSameContacts) {
+  const SceneMesh mesh = terrain();
+  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(model.get()).isOk());
+  EXPECT_EQ(cache.size(), 1u);
+  EXPECT_GT(cache.memoryBytes(), 64 * mesh.triangleCount());
+  fcl::Options cached;
+  cached.cache = &cache;
+  scenes::Rng rng(56);
+  fcl::Scratch scratch;
+  int with_contacts = 0;
+  for (const ShapeCase& shape : allShapes()) {
+    for (int i = 0; i < 300; ++i) {
+      const Pose mesh_pose = randomPose(rng, 2.0);
+      Pose local;
+      local.rotation = rng.rotation();
+      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.5, 0.7));
+      ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape.make(), toTransform(mesh_pose * local));
+      for (const auto& request : {contactsRequest(), ::fcl::CollisionRequestd(1, false)}) {
+        ::fcl::CollisionResultd a, b;
+        fcl::Report ra, rb;
+        ASSERT_TRUE(fcl::collide(&m, &s, request, a, fcl::Options(), scratch, &ra).isOk());
+        ASSERT_TRUE(fcl::collide(&s, &m, request, b, cached, scratch, &rb).isOk());
+        std::vector<::fcl::Contactd> swapped = contactsOf(b);
+        for (auto& c : swapped) {
+          std::swap(c.o1, c.o2);
+          std::swap(c.b1, c.b2);
+          c.normal = -c.normal;
+        }
+        if (request.enable_contact) {
+          EXPECT_EQ(compareContacts(contactsOf(a), swapped, 0.0), "") << shape.name << " pose " << i;
+          EXPECT_EQ(ra.through_contacts, rb.through_contacts);
+        } else {
+          // Collision checking stops at the first triangle in contact, in
+          // the order of the hierarchy walked: only the answer must agree.
+          EXPECT_EQ(a.isCollision(), b.isCollision()) << shape.name << " pose " << i;
+        }
+        with_contacts += a.numContacts() > 0;
+      }
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+  EXPECT_GT(with_contacts, 1000);
+  // Removed: the model is walked in place again, with the same answers.
+  cache.remove(model.get());
+  EXPECT_EQ(cache.size(), 0u);
+  // Bad entries.
+  ::fcl::Sphered sphere(1.0);
+  EXPECT_EQ(cache.add(&sphere).code(), ErrorCode::kInvalidShape);
+  ::fcl::BVHModel<::fcl::AABBd> unfinished;
+  unfinished.beginModel();
+  EXPECT_EQ(cache.add(&unfinished).code(), ErrorCode::kMeshNotBuilt);
+  EXPECT_EQ(cache.size(), 0u);
+}
+
+// --- Forwarding ----------------------------------------------------------------
+
+void expectForwarded(const ::fcl::CollisionObjectd& o1, const ::fcl::CollisionObjectd& o2,
+                     const ::fcl::CollisionRequestd& request, const char* what) {
+  ::fcl::CollisionResultd ours, theirs;
+  fcl::Scratch scratch;
+  fcl::Report report;
+  const Status s = fcl::collide(&o1, &o2, request, ours, fcl::Options(), scratch, &report);
+  ASSERT_TRUE(s.isOk()) << what << ": " << s.message();
+  EXPECT_EQ(report.route, fcl::Report::Route::kForwarded) << what;
+  ::fcl::collide(&o1, &o2, request, theirs);
+  EXPECT_EQ(compareContacts(contactsOf(ours), contactsOf(theirs), 0.0), "") << what;
+  EXPECT_EQ(report.added, theirs.numContacts()) << what;
+}
+
+TEST(DropIn, ForwardsEveryOtherPair) {
+  const SceneMesh mesh = terrain();
+  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  auto kdop = makeModel<::fcl::KDOPd<18>>(mesh);
+  ::fcl::Transform3d shape_tf = ::fcl::Transform3d::Identity();
+  shape_tf.translation() = Vec3(2.1, 2.3, 0.1);
+  ::fcl::CollisionObjectd mesh_object(model), kdop_object(kdop);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.4), shape_tf);
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), shape_tf);
+  ::fcl::CollisionObjectd plane(std::make_shared<::fcl::Planed>(Vec3::UnitZ(), 0.0));
+  ::fcl::CollisionObjectd halfspace(std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), 0.0));
+  ::fcl::Transform3d other_tf = ::fcl::Transform3d::Identity();
+  other_tf.translation() = Vec3(0.3, 0.2, 0.1);
+  ::fcl::CollisionObjectd other_mesh(makeModel<::fcl::OBBRSSd>(mesh), other_tf);
+
+  expectForwarded(sphere, box, contactsRequest(), "sphere vs box");
+  expectForwarded(mesh_object, other_mesh, contactsRequest(), "mesh vs mesh");
+  expectForwarded(mesh_object, plane, contactsRequest(), "mesh vs plane");
+  expectForwarded(halfspace, mesh_object, contactsRequest(), "halfspace vs mesh");
+  expectForwarded(kdop_object, sphere, contactsRequest(), "KDOP18 model vs sphere");
+  ::fcl::CollisionRequestd cost = contactsRequest();
+  cost.enable_cost = true;
+  cost.num_max_cost_sources = 5;
+  expectForwarded(mesh_object, sphere, cost, "mesh vs sphere with enable_cost");
+}
+
+// --- FCL's request and conventions ------------------------------------------
+
+TEST(DropIn, HonoursTheRequest) {
+  const SceneMesh floor = scenes::flatFloor(8, 8, 0.5, 53);
+  auto model = makeModel<::fcl::OBBRSSd>(floor);
+  ::fcl::CollisionObjectd mesh(model);
+  // A box sunk flat into the floor: the manifold reduction leaves 4 contacts.
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = Vec3(2.0, 2.0, 0.15);
+  tf.linear() = Eigen::AngleAxisd(0.3, Vec3::UnitZ()).toRotationMatrix();
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.8, 0.6, 0.4), tf);
+  fcl::Scratch scratch;
+
+  ::fcl::CollisionResultd all;
+  ASSERT_TRUE(fcl::collide(&mesh, &box, contactsRequest(), all, fcl::Options(), scratch).isOk());
+  ASSERT_EQ(all.numContacts(), 4u);
+  for (const auto& c : contactsOf(all)) {
+    EXPECT_LE((c.normal - Vec3::UnitZ()).norm(), 1e-12) << str(c);
+    EXPECT_NEAR(c.penetration_depth, 0.05, 1e-12) << str(c);
+    EXPECT_NEAR(c.pos.z(), -0.05, 1e-12) << "on the box's bottom face: " << str(c);
+  }
+
+  // num_max_contacts: the deepest are kept, appended after what is there.
+  ::fcl::CollisionResultd two;
+  two.addContact(::fcl::Contactd(nullptr, nullptr, 7, 7));
+  ::fcl::CollisionRequestd request(3, true);
+  const std::size_t n = fcl::collide(&mesh, &box, request, two);
+  EXPECT_TRUE(fcl::lastStatus().isOk());
+  EXPECT_EQ(n, 3u);
+  EXPECT_EQ(two.getContact(0).b1, 7);
+  // Already satisfied: nothing is added (as fcl::collide).
+  EXPECT_EQ(fcl::collide(&mesh, &box, request, two), 3u);
+
+  // enable_contact false: the ids are there; the answer is the same.
+  ::fcl::CollisionResultd boolean;
+  EXPECT_EQ(fcl::collide(&mesh, &box, ::fcl::CollisionRequestd(1, false), boolean), 1u);
+  EXPECT_GE(boolean.getContact(0).b1, 0);
+  EXPECT_EQ(boolean.getContact(0).b2, intptr_t{::fcl::Contactd::NONE});
+
+  // A positive contact distance: a box just above the floor gets contacts
+  // with a negative depth.
+  tf.translation().z() = 0.21;
+  box.setTransform(tf);
+  ::fcl::CollisionResultd near;
+  fcl::Options options;
+  options.settings.contact_distance = 0.02;
+  ASSERT_TRUE(fcl::collide(&mesh, &box, contactsRequest(), near, options, scratch).isOk());
+  ASSERT_EQ(near.numContacts(), 4u);
+  for (const auto& c : contactsOf(near)) EXPECT_NEAR(c.penetration_depth, -0.01, 1e-12);
+  ::fcl::CollisionResultd none;
+  ASSERT_TRUE(fcl::collide(&mesh, &box, contactsRequest(), none, fcl::Options(), scratch).isOk());
+  EXPECT_EQ(none.numContacts(), 0u);
+}
+
+TEST(DropIn, ArgumentOrderSwapsOnlyTheConvention) {
+  const SceneMesh mesh = terrain();
+  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  scenes::Rng rng(54);
+  fcl::Scratch scratch;
+  for (const ShapeCase& shape : allShapes()) {
+    for (int i = 0; i < 200; ++i) {
+      const Pose mesh_pose = randomPose(rng, 2.0);
+      Pose local;
+      local.rotation = rng.rotation();
+      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.3, 0.6));
+      ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape.make(), toTransform(mesh_pose * local));
+      ::fcl::CollisionResultd a, b;
+      ASSERT_TRUE(fcl::collide(&m, &s, contactsRequest(), a, fcl::Options(), scratch).isOk());
+      ASSERT_TRUE(fcl::collide(&s, &m, contactsRequest(), b, fcl::Options(), scratch).isOk());
+      std::vector<::fcl::Contactd> swapped = contactsOf(b);
+      for (auto& c : swapped) {
+        std::swap(c.o1, c.o2);
+        std::swap(c.b1, c.b2);
+        c.normal = -c.normal;
+      }
+      EXPECT_EQ(compareContacts(contactsOf(a), swapped, 0.0), "") << shape.name << " pose " << i;
+      for (const auto& c : contactsOf(a)) {
+        EXPECT_EQ(c.o1, model.get());
+        EXPECT_EQ(c.o2, s.collisionGeometry().get());
+        EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12);
+      }
+    }
+  }
+}
+
+TEST(DropIn, ThreadsGetTheSameAnswers) {
+  const SceneMesh mesh = terrain();
+  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  std::vector<Pose> poses;
+  scenes::Rng rng(55);
+  for (int i = 0; i < 2000; ++i) {
+    Pose p;
+    p.rotation = rng.rotation();
+    p.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.3, 0.6));
+    poses.push_back(p);
+  }
+  auto run = [&](std::vector<std::vector<::fcl::Contactd>>& out) {
+    ::fcl::CollisionObjectd m(model);
+    for (const Pose& p : poses) {
+      ::fcl::CollisionObjectd s(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), toTransform(p));
+      ::fcl::CollisionResultd r;
+      fcl::collide(&m, &s, contactsRequest(), r);  // the thread_local scratch
+      out.push_back(contactsOf(r));
+      for (auto& c : out.back()) c.o2 = nullptr;  // a new box geometry per pose
+    }
+  };
+  std::vector<std::vector<::fcl::Contactd>> serial, t1, t2;
+  run(serial);
+  std::thread a([&] { run(t1); }), b([&] { run(t2); });
+  a.join();
+  b.join();
+  int with_contacts = 0;
+  for (std::size_t i = 0; i < poses.size() && !::testing::Test::HasFailure(); ++i) {
+    with_contacts += !serial[i].empty();
+    EXPECT_EQ(compareContacts(t1[i], serial[i], 0.0), "") << "pose " << i;
+    EXPECT_EQ(compareContacts(t2[i], serial[i], 0.0), "") << "pose " << i;
+  }
+  EXPECT_GT(with_contacts, 200);
+}
+
+// --- Bad input -----------------------------------------------------------------
+
+struct BadInput {
+  std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>> model = makeModel<::fcl::OBBRSSd>(terrain());
+  fcl::Scratch scratch;
+
+  // Both the Status variant and the drop-in: the error, nothing appended.
+  void expectError(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2, ErrorCode code,
+                   const std::string& words, const ::fcl::CollisionRequestd& request = contactsRequest(),
+                   const fcl::Options& options = fcl::Options()) {
+    ::fcl::CollisionResultd result;
+    result.addContact(::fcl::Contactd(nullptr, nullptr, 1, 2));
+    const Status s = fcl::collide(o1, o2, request, result, options, scratch);
+    EXPECT_EQ(s.code(), code) << toString(s.code()) << ": " << s.message();
+    EXPECT_NE(s.message().find(words), std::string::npos) << "message: " << s.message();
+    EXPECT_EQ(result.numContacts(), 1u);
+    if (options.settings.contact_distance == 0.0) {
+      EXPECT_EQ(fcl::collide(o1, o2, request, result), 1u);
+      EXPECT_EQ(fcl::lastStatus().code(), code);
+    }
+  }
+};
+
+::fcl::Transform3d at(const Vec3& t) {
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = t;
+  return tf;
+}
+
+TEST(DropInBadInput, NullObjects) {
+  BadInput b;
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3));
+  b.expectError(nullptr, &sphere, ErrorCode::kInvalidShape, "null");
+  b.expectError(&sphere, nullptr, ErrorCode::kInvalidShape, "null");
+}
+
+TEST(DropInBadInput, UnfinishedModel) {
+  BadInput b;
+  auto unfinished = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
+  unfinished->beginModel();
+  unfinished->addTriangle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0));  // no endModel()
+  ::fcl::CollisionObjectd mesh(unfinished);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(0.2, 0.2, 0.1)));
+  ::fcl::CollisionObjectd plane(std::make_shared<::fcl::Planed>(Vec3::UnitZ(), 0.0));
+  b.expectError(&mesh, &sphere, ErrorCode::kMeshNotBuilt, "endModel");
+  b.expectError(&sphere, &mesh, ErrorCode::kMeshNotBuilt, "endModel");
+  b.expectError(&mesh, &plane, ErrorCode::kMeshNotBuilt, "endModel");  // a forwarded pair: FCL would read null nodes
+  ::fcl::CollisionResultd raw, cleaned;
+  EXPECT_EQ(fcl::postFilter(&mesh, &sphere, contactsRequest(), raw, cleaned).code(), ErrorCode::kMeshNotBuilt);
+}
+
+TEST(DropInBadInput, PointCloudModel) {
+  BadInput b;
+  auto cloud = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
+  cloud->beginModel();
+  for (int i = 0; i < 8; ++i) cloud->addVertex(Vec3(i & 1, (i >> 1) & 1, (i >> 2) & 1));
+  cloud->endModel();
+  ::fcl::CollisionObjectd mesh(cloud);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(0.5, 0.5, 0.5)));
+  b.expectError(&mesh, &sphere, ErrorCode::kMeshNotBuilt, "triangle model");
+}
+
+TEST(DropInBadInput, NonFiniteOrSkewedTransforms) {
+  BadInput b;
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  sphere.setTranslation(Vec3(nan, 1, 0.1));
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidPose, "o2");
+  b.expectError(&sphere, &mesh, ErrorCode::kInvalidPose, "o1");
+  sphere.setTranslation(Vec3(1, 1, 0.1));
+  ::fcl::Transform3d bad = ::fcl::Transform3d::Identity();
+  bad.linear()(0, 1) = std::numeric_limits<double>::infinity();
+  mesh.setTransform(bad);
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidPose, "o1");
+  // A scaled rotation is not a rigid transform.
+  bad.linear() = 1.01 * Mat3::Identity();
+  mesh.setTransform(bad);
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidPose, "orthonormal");
+  // NaN in a forwarded pair, too.
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(1, 1, 1), at(Vec3(nan, 0, 0)));
+  b.expectError(&box, &sphere, ErrorCode::kInvalidPose, "non-finite");
+}
+
+TEST(DropInBadInput, SlightlySkewedRotationIsAccepted) {
+  // Rotations from float data are orthonormal to ~1e-7 only: accepted, and
+  // the contacts are those of the nearest rotation to within that error.
+  BadInput b;
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.linear() = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  tf.translation() = Vec3(2.2, 2.4, 0.05);
+  ::fcl::CollisionObjectd exact(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), tf);
+  tf.linear() = tf.linear().cast<float>().cast<double>().eval();
+  tf.linear()(0, 0) += 2e-7;
+  ::fcl::CollisionObjectd skewed(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), tf);
+  ::fcl::CollisionResultd a, c;
+  ASSERT_TRUE(fcl::collide(&mesh, &exact, contactsRequest(), a, fcl::Options(), b.scratch).isOk());
+  const Status s = fcl::collide(&mesh, &skewed, contactsRequest(), c, fcl::Options(), b.scratch);
+  ASSERT_TRUE(s.isOk()) << s.message();
+  ASSERT_GT(a.numContacts(), 0u);
+  ASSERT_EQ(a.numContacts(), c.numContacts());
+  for (std::size_t i = 0; i < a.numContacts(); ++i)
+    EXPECT_LE((a.getContact(i).pos - c.getContact(i).pos).norm(), 1e-5);
+}
+
+TEST(DropInBadInput, BadShapesAndSettings) {
+  BadInput b;
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::CollisionObjectd negative(std::make_shared<::fcl::Sphered>(-0.3), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &negative, ErrorCode::kInvalidShape, "radius");
+  ::fcl::CollisionObjectd flat(std::make_shared<::fcl::Boxd>(0, 0, 0), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &flat, ErrorCode::kInvalidShape, "");
+  ::fcl::CollisionObjectd capsule(std::make_shared<::fcl::Capsuled>(std::numeric_limits<double>::quiet_NaN(), 1.0),
+                                  at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &capsule, ErrorCode::kInvalidShape, "");
+  // Far from the mesh too: the shape is checked whether or not triangles are near.
+  ::fcl::CollisionObjectd far(std::make_shared<::fcl::Sphered>(-0.3), at(Vec3(100, 100, 100)));
+  b.expectError(&mesh, &far, ErrorCode::kInvalidShape, "radius");
+
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidSettings, "num_max_contacts", ::fcl::CollisionRequestd(0, true));
+  fcl::Options negative_distance;
+  negative_distance.settings.contact_distance = -0.1;
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidSettings, "contact_distance", contactsRequest(), negative_distance);
+}
+
+TEST(DropInBadInput, PairFclCannotCollide) {
+  BadInput b;
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::CollisionObjectd triangle(
+      std::make_shared<::fcl::TrianglePd>(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)));
+  b.expectError(&mesh, &triangle, ErrorCode::kInvalidShape, "GEOM_TRIANGLE");
+  ::fcl::CollisionObjectd aabb_mesh(makeModel<::fcl::AABBd>(terrain()));
+  b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
+}
+
+}  // namespace
+}  // namespace meshcontact::fcltest

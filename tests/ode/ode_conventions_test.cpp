@@ -1,0 +1,603 @@
+// The adapter's conventions, checked against the core itself: for both
+// argument orders of dCollide, the ODE contacts are the core's contacts
+// converted (world frame, normal into g1, side1/side2 = triangle, g1/g2), under
+// a non-identity trimesh pose; the contact budget and the skip stride; the
+// ways a trimesh's triangles reach the cache (registered arrays, ODE's public
+// API, updates); groups; the triangle filter; errors; threads.
+#include "ode_sim.h"
+
+#include <meshcontact/convex.h>
+#include <meshcontact/meshcontact.h>
+#include <meshcontact/shapes.h>
+
+#include <cstdlib>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+namespace meshcontact::odetest {
+namespace {
+
+std::string str(const Vec3& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "Vec3(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return s.str();
+}
+
+Vec3 vec(const dReal* v) { return Vec3(v[0], v[1], v[2]); }
+
+Mat3 odeRotation(dGeomID g) {
+  const dReal* R = dGeomGetRotation(g);
+  Mat3 m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m(i, j) = R[4 * i + j];
+  return m;
+}
+
+void setRotation(dGeomID g, const Mat3& r) {
+  dMatrix3 R;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) R[4 * i + j] = r(i, j);
+    R[4 * i + 3] = 0;
+  }
+  dGeomSetRotation(g, R);
+}
+
+// A trimesh geom over registered (exact) arrays, optionally posed.
+struct OdeMesh {
+  std::vector<double> vertices;
+  std::vector<dTriIndex> indices;
+  dTriMeshDataID data = nullptr;
+  dGeomID geom = nullptr;
+
+  explicit OdeMesh(const scenes::SceneMesh& m, bool registered = true)
+      : vertices(m.vertices), indices(m.indices.begin(), m.indices.end()) {
+    data = dGeomTriMeshDataCreate();
+    if (registered) {
+      const Status s = ode::buildTriMeshDataDouble(data, vertices.data(), 3 * sizeof(double),
+                                                   static_cast<int>(vertices.size() / 3), indices.data(),
+                                                   static_cast<int>(indices.size()), 3 * sizeof(dTriIndex));
+      EXPECT_TRUE(s.isOk()) << s.message();
+    } else {
+      dGeomTriMeshDataBuildDouble(data, vertices.data(), 3 * sizeof(double), static_cast<int>(vertices.size() / 3),
+                                  indices.data(), static_cast<int>(indices.size()), 3 * sizeof(dTriIndex));
+    }
+    geom = dCreateTriMesh(nullptr, data, nullptr, nullptr, nullptr);
+  }
+  ~OdeMesh() {
+    ode::leaveGroup(geom);
+    dGeomDestroy(geom);
+    ode::destroyTriMeshData(data);
+  }
+  OdeMesh(const OdeMesh&) = delete;
+  OdeMesh& operator=(const OdeMesh&) = delete;
+};
+
+// The core's answer for `shape` against `mesh` placed at `mesh_pose` (world),
+// computed here from the public core API, in the mesh frame.
+Status coreContacts(const TriangleMesh& mesh, const Pose& mesh_pose, dGeomID shape, const ConvexHull* hull,
+                    const QuerySettings& settings, std::vector<Contact>& out) {
+  QueryScratch scratch;
+  Pose world;
+  world.translation = vec(dGeomGetPosition(shape));
+  world.rotation = odeRotation(shape);
+  const Pose local = mesh_pose.inverse() * world;
+  switch (dGeomGetClass(shape)) {
+    case dSphereClass:
+      return collideSphere(mesh, Sphere{local.translation, dGeomSphereGetRadius(shape)}, settings, scratch, out);
+    case dCapsuleClass: {
+      dReal r, l;
+      dGeomCapsuleGetParams(shape, &r, &l);
+      return collideCapsule(mesh, Capsule{r, 0.5 * l}, local, settings, scratch, out);
+    }
+    case dBoxClass: {
+      dVector3 l;
+      dGeomBoxGetLengths(shape, l);
+      return collideBox(mesh, Box{0.5 * Vec3(l[0], l[1], l[2])}, local, settings, scratch, out);
+    }
+    case dCylinderClass: {
+      dReal r, l;
+      dGeomCylinderGetParams(shape, &r, &l);
+      return collideCylinder(mesh, Cylinder{r, 0.5 * l}, local, settings, scratch, out);
+    }
+    case dConvexClass: return collideConvex(mesh, *hull, local, settings, scratch, out);
+  }
+  return {ErrorCode::kInvalidShape, "unexpected class"};
+}
+
+// A convex hull: an irregular octahedron-ish point set (geom-local).
+std::vector<dReal> convexPoints() {
+  return {0.3, 0, 0, -0.25, 0, 0, 0, 0.2, 0, 0, -0.22, 0, 0, 0, 0.28, 0, 0, -0.2, 0.1, 0.1, 0.1, -0.1, -0.1, -0.12};
+}
+
+struct ShapeCase {
+  const char* name;
+  dGeomID (*make)();
+  double reach;  // a length of the shape, to place it near the surface
+};
+
+dGeomID makeSphere() { return dCreateSphere(nullptr, 0.3); }
+dGeomID makeCapsule() { return dCreateCapsule(nullptr, 0.15, 0.5); }
+dGeomID makeBox() { return dCreateBox(nullptr, 0.6, 0.4, 0.3); }
+dGeomID makeCylinder() { return dCreateCylinder(nullptr, 0.2, 0.5); }
+dGeomID makeConvex() {
+  static const std::vector<dReal> points = convexPoints();
+  // Planes and polygons are what ODE's native convex collider uses; the
+  // adapter only needs the points. One dummy plane keeps ODE's code happy.
+  static const dReal planes[] = {0, 0, 1, 0.28};
+  static const unsigned polygons[] = {3, 0, 2, 4};
+  Status s;
+  dGeomID g = ode::createConvex(nullptr, planes, 1, points.data(), static_cast<unsigned>(points.size() / 3),
+                                polygons, &s);
+  EXPECT_TRUE(s.isOk()) << s.message();
+  return g;
+}
+
+const ShapeCase kShapes[] = {{"sphere", &makeSphere, 0.3},
+                             {"capsule", &makeCapsule, 0.4},
+                             {"box", &makeBox, 0.4},
+                             {"cylinder", &makeCylinder, 0.35},
+                             {"convex", &makeConvex, 0.3}};
+
+// The scene: a step (floor, cliff edge, wall) whose trimesh geom is rotated
+// and translated, so the query frame is not the world frame.
+Pose meshPose() {
+  Pose p;
+  p.rotation = Eigen::AngleAxisd(0.3, Vec3(0.2, -0.5, 1.0).normalized()).toRotationMatrix();
+  p.translation = Vec3(0.7, -1.3, 0.4);
+  return p;
+}
+
+TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const scenes::SceneMesh scene = scenes::step(1.5, 0.5, 0.5, 11);
+  OdeMesh om(scene);
+  const Pose pose = meshPose();
+  dGeomSetPosition(om.geom, pose.translation.x(), pose.translation.y(), pose.translation.z());
+  setRotation(om.geom, pose.rotation);
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(scene.vertices, scene.indices).isOk());
+  const QuerySettings settings = ode::currentSettings().query;
+
+  for (const ShapeCase& sc : kShapes) {
+    dGeomID shape = sc.make();
+    std::shared_ptr<ConvexHull> hull;
+    if (dGeomGetClass(shape) == dConvexClass) {
+      hull = std::make_shared<ConvexHull>();
+      std::vector<Vec3> pts;
+      const std::vector<dReal> p = convexPoints();
+      for (std::size_t i = 0; i < p.size(); i += 3) pts.emplace_back(p[i], p[i + 1], p[i + 2]);
+      ASSERT_TRUE(hull->build(pts).isOk());
+    }
+    scenes::Rng rng(1234);
+    int with_contacts = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+      // Near the cliff edge (x = 0, z = 0.5 in the mesh frame) so that faces,
+      // edges and the wall all take part.
+      const Vec3 local(rng.uniform(-0.8, 0.8), rng.uniform(-1.0, 1.0), rng.uniform(0.0, 0.5 + sc.reach));
+      const Vec3 world = pose.apply(local);
+      dGeomSetPosition(shape, world.x(), world.y(), world.z());
+      setRotation(shape, rng.rotation());
+      std::vector<Contact> expected;
+      // MESHCONTACT_ODE_TEST_VERBOSE=1 prints each pose before the query (to
+      // find the configuration of a query that does not return).
+      if (std::getenv("MESHCONTACT_ODE_TEST_VERBOSE")) {
+        const Vec3 t = vec(dGeomGetPosition(shape));
+        const Mat3 r = odeRotation(shape);
+        std::fprintf(stderr, "%s trial %d world %s rotation row0 %s row1 %s row2 %s\n", sc.name, trial, str(t).c_str(),
+                     str(r.row(0).transpose()).c_str(), str(r.row(1).transpose()).c_str(),
+                     str(r.row(2).transpose()).c_str());
+      }
+      ASSERT_TRUE(coreContacts(mesh, pose, shape, hull.get(), settings, expected).isOk());
+      dContactGeom forward[64], reverse[64];
+      const int nf = dCollide(om.geom, shape, 64, forward, sizeof(dContactGeom));
+      const int nr = dCollide(shape, om.geom, 64, reverse, sizeof(dContactGeom));
+      const std::string where = std::string(sc.name) + " at local " + str(local) + " trial " + std::to_string(trial);
+      ASSERT_EQ(nf, static_cast<int>(expected.size())) << where << " (adapter errors: " << ode::statistics().errors << ", last: " << ode::lastError() << ")";
+      ASSERT_EQ(nr, nf) << where;
+      if (nf > 0) ++with_contacts;
+      for (int i = 0; i < nf; ++i) {
+        const Contact& c = expected[static_cast<std::size_t>(i)];
+        const Vec3 p = pose.apply(c.point), n = pose.rotation * c.normal;
+        // Rounding of the two pose products (ODE's and ours) only.
+        const double tol = 1e-12 * (1.0 + p.norm());
+        SCOPED_TRACE(where + " contact " + std::to_string(i));
+        // (trimesh, shape): normal into g1 = the mesh, i.e. -core normal.
+        EXPECT_LE((vec(forward[i].pos) - p).norm(), tol);
+        EXPECT_LE((vec(forward[i].normal) + n).norm(), 1e-12);
+        EXPECT_NEAR(forward[i].depth, c.depth, tol);
+        EXPECT_EQ(forward[i].g1, om.geom);
+        EXPECT_EQ(forward[i].g2, shape);
+        EXPECT_EQ(forward[i].side1, static_cast<int>(c.triangle));
+        EXPECT_EQ(forward[i].side2, -1);
+        // (shape, trimesh): ODE swaps everything; normal into g1 = the shape.
+        EXPECT_LE((vec(reverse[i].pos) - p).norm(), tol);
+        EXPECT_LE((vec(reverse[i].normal) - n).norm(), 1e-12);
+        EXPECT_NEAR(reverse[i].depth, c.depth, tol);
+        EXPECT_EQ(reverse[i].g1, shape);
+        EXPECT_EQ(reverse[i].g2, om.geom);
+        EXPECT_EQ(reverse[i].side1, -1);
+        EXPECT_EQ(reverse[i].side2, static_cast<int>(c.triangle));
+      }
+    }
+    EXPECT_GT(with_contacts, 30) << sc.name << ": the placements must exercise contacts";
+    if (dGeomGetClass(shape) == dConvexClass) ode::unregisterConvex(shape);
+    dGeomDestroy(shape);
+  }
+}
+
+// Many contacts (no manifold reduction): the budget keeps the deepest first,
+// then each next one the farthest from those already kept; the stride is
+// honoured and nothing is written past the budget.
+TEST(OdeConventions, BudgetKeepsDeepestThenSpreadAndHonoursSkip) {
+  Session session;
+  ode::Settings settings;
+  settings.query.reduce_manifold = false;
+  ASSERT_TRUE(ode::installColliders(settings).isOk());
+  OdeMesh om(scenes::flatFloor(8, 8, 0.5, 3));
+  dGeomID box = dCreateBox(nullptr, 1.2, 0.9, 0.4);
+  dGeomSetPosition(box, 2.1, 1.9, 0.19);
+  setRotation(box, Eigen::AngleAxisd(0.02, Vec3(1, 2, 0).normalized()).toRotationMatrix());
+
+  dContact all[128];
+  const int n = dCollide(om.geom, box, 128, &all[0].geom, sizeof(dContact));
+  ASSERT_GE(n, 8) << "a tilted box over many triangles must give many contacts";
+  for (int budget = 1; budget <= 6; ++budget) {
+    dContact out[8];
+    for (dContact& c : out) c.geom.depth = -12345;  // sentinel
+    const int k = dCollide(om.geom, box, budget, &out[0].geom, sizeof(dContact));
+    ASSERT_EQ(k, budget);
+    EXPECT_EQ(out[budget].geom.depth, -12345) << "written past the budget " << budget;
+    // Each kept contact is one of the full set.
+    std::vector<int> index(static_cast<std::size_t>(k), -1);
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < n; ++j)
+        if (vec(out[i].geom.pos) == vec(all[j].geom.pos) && out[i].geom.side1 == all[j].geom.side1) index[i] = j;
+    for (int i = 0; i < k; ++i) ASSERT_GE(index[static_cast<std::size_t>(i)], 0) << "contact " << i << " invented";
+    // The first is the deepest.
+    double deepest = -1e300;
+    for (int j = 0; j < n; ++j) deepest = std::max(deepest, static_cast<double>(all[j].geom.depth));
+    EXPECT_EQ(out[0].geom.depth, deepest);
+    // Each next one maximizes the distance to the ones before it.
+    for (int i = 1; i < k; ++i) {
+      auto spread = [&](const Vec3& p) {
+        double d = 1e300;
+        for (int q = 0; q < i; ++q) d = std::min(d, (p - vec(out[q].geom.pos)).norm());
+        return d;
+      };
+      const double mine = spread(vec(out[i].geom.pos));
+      for (int j = 0; j < n; ++j) EXPECT_GE(mine, spread(vec(all[j].geom.pos)) - 1e-15) << "budget " << budget;
+    }
+    // Deterministic.
+    dContact again[8];
+    ASSERT_EQ(dCollide(om.geom, box, budget, &again[0].geom, sizeof(dContact)), k);
+    for (int i = 0; i < k; ++i) EXPECT_EQ(vec(again[i].geom.pos), vec(out[i].geom.pos));
+  }
+  dGeomDestroy(box);
+}
+
+// Data built with plain ODE calls is read through ODE's public API: OPCODE
+// hands out float-rounded vertices, so the contacts are the core's on the
+// float-rounded mesh. Single-precision data is exact (float -> double).
+TEST(OdeConventions, UnregisteredDataIsReadThroughOde) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const scenes::SceneMesh scene = scenes::sineTerrain(8, 8, 0.5, 0.2, 2.0, 5);
+  scenes::SceneMesh rounded = scene;
+  for (double& x : rounded.vertices) x = static_cast<float>(x);
+  TriangleMesh exact, as_float;
+  ASSERT_TRUE(exact.build(scene.vertices, scene.indices).isOk());
+  ASSERT_TRUE(as_float.build(rounded.vertices, rounded.indices).isOk());
+
+  OdeMesh registered(scene, true), plain(scene, false);
+  std::vector<float> fv(scene.vertices.begin(), scene.vertices.end());
+  std::vector<dTriIndex> fi(scene.indices.begin(), scene.indices.end());
+  dTriMeshDataID single_data = dGeomTriMeshDataCreate();
+  dGeomTriMeshDataBuildSingle(single_data, fv.data(), 3 * sizeof(float), static_cast<int>(fv.size() / 3), fi.data(),
+                              static_cast<int>(fi.size()), 3 * sizeof(dTriIndex));
+  dGeomID single = dCreateTriMesh(nullptr, single_data, nullptr, nullptr, nullptr);
+  // The "simple" layout: dVector3 per vertex.
+  std::vector<dReal> simple_vertices;
+  for (std::size_t i = 0; i < scene.vertexCount(); ++i)
+    simple_vertices.insert(simple_vertices.end(), {scene.vertices[3 * i], scene.vertices[3 * i + 1],
+                                                   scene.vertices[3 * i + 2], 0.0});
+  dTriMeshDataID simple_data = dGeomTriMeshDataCreate();
+  ASSERT_TRUE(ode::buildTriMeshDataSimple(simple_data, simple_vertices.data(), static_cast<int>(scene.vertexCount()),
+                                          fi.data(), static_cast<int>(fi.size()))
+                  .isOk());
+  dGeomID simple = dCreateTriMesh(nullptr, simple_data, nullptr, nullptr, nullptr);
+
+  dGeomID sphere = dCreateSphere(nullptr, 0.35);
+  scenes::Rng rng(99);
+  QuerySettings settings = ode::currentSettings().query;
+  int compared = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Vec3 c(rng.uniform(0.5, 3.5), rng.uniform(0.5, 3.5), rng.uniform(-0.1, 0.5));
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    QueryScratch scratch;
+    std::vector<Contact> want_exact, want_float;
+    ASSERT_TRUE(collideSphere(exact, Sphere{c, 0.35}, settings, scratch, want_exact).isOk());
+    ASSERT_TRUE(collideSphere(as_float, Sphere{c, 0.35}, settings, scratch, want_float).isOk());
+    struct Case {
+      const char* name;
+      dGeomID geom;
+      const std::vector<Contact>* want;
+    } cases[] = {{"registered double", registered.geom, &want_exact},
+                 {"simple (registered)", simple, &want_exact},
+                 {"plain double (read via ODE)", plain.geom, &want_float},
+                 {"plain single (read via ODE)", single, &want_float}};
+    for (const Case& k : cases) {
+      dContactGeom got[32];
+      const int n = dCollide(k.geom, sphere, 32, got, sizeof(dContactGeom));
+      ASSERT_EQ(n, static_cast<int>(k.want->size())) << k.name << " centre " << str(c);
+      for (int i = 0; i < n; ++i) {
+        const Contact& w = (*k.want)[static_cast<std::size_t>(i)];
+        EXPECT_EQ(vec(got[i].pos), w.point) << k.name << " centre " << str(c);
+        EXPECT_EQ(vec(got[i].normal), Vec3(-w.normal)) << k.name << " centre " << str(c);
+        EXPECT_EQ(got[i].side1, static_cast<int>(w.triangle)) << k.name << " centre " << str(c);
+      }
+      compared += n;
+    }
+  }
+  EXPECT_GT(compared, 200);
+  dGeomDestroy(sphere);
+  dGeomDestroy(single);
+  dGeomDestroy(simple);
+  ode::destroyTriMeshData(single_data);
+  ode::destroyTriMeshData(simple_data);
+}
+
+// After the user changes the arrays, updateTriMeshData() rebuilds the cache.
+TEST(OdeConventions, UpdateRebuildsTheCache) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  OdeMesh om(scenes::flatFloor(4, 4, 0.5, 2));
+  dGeomID sphere = dCreateSphere(nullptr, 0.25);
+  dGeomSetPosition(sphere, 1.1, 0.9, 0.2);
+  dContactGeom c[8];
+  ASSERT_EQ(dCollide(om.geom, sphere, 8, c, sizeof(dContactGeom)), 1);
+  EXPECT_NEAR(c[0].depth, 0.05, 1e-12);
+  const std::uint64_t builds = ode::statistics().mesh_builds;
+  for (std::size_t i = 2; i < om.vertices.size(); i += 3) om.vertices[i] += 0.1;  // raise the floor
+  ode::updateTriMeshData(om.data);
+  ASSERT_EQ(dCollide(om.geom, sphere, 8, c, sizeof(dContactGeom)), 1);
+  EXPECT_NEAR(c[0].depth, 0.15, 1e-12);
+  EXPECT_EQ(ode::statistics().mesh_builds, builds + 1);
+  // The cache is reused while nothing changes.
+  ASSERT_EQ(dCollide(om.geom, sphere, 8, c, sizeof(dContactGeom)), 1);
+  EXPECT_EQ(ode::statistics().mesh_builds, builds + 1);
+  dGeomDestroy(sphere);
+}
+
+// Tiles as one surface: the union of the per-tile collider results, and
+// collideWithGroup, equal the core's query on the welded floor; without the
+// group the seams give extra (edge) contacts.
+TEST(OdeConventions, GroupedTilesAreOneSurface) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(4, 4, 2, 0.5, 21);
+  std::vector<std::unique_ptr<OdeMesh>> pieces;
+  std::vector<dGeomID> geoms;
+  for (const scenes::SceneMesh& t : tiles) {
+    pieces.push_back(std::make_unique<OdeMesh>(t));
+    geoms.push_back(pieces.back()->geom);
+  }
+  scenes::SceneMesh all;
+  for (const scenes::SceneMesh& t : tiles) all.append(t);
+  TriangleMesh welded;
+  ASSERT_TRUE(welded.build(scenes::weld(all).vertices, scenes::weld(all).indices).isOk());
+
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  auto collideEach = [&](std::vector<Vec3>& normals) {
+    normals.clear();
+    for (dGeomID g : geoms) {
+      dContactGeom c[16];
+      const int n = dCollide(sphere, g, 16, c, sizeof(dContactGeom));
+      for (int i = 0; i < n; ++i) normals.push_back(vec(c[i].normal));
+    }
+  };
+  scenes::Rng rng(5);
+  int ghosts_without_group = 0, seam_cases = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    // Centres near the tile seams (every 1 m).
+    const Vec3 c(std::round(rng.uniform(0.6, 3.4)) + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6),
+                 rng.uniform(0.05, 0.3));
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    QueryScratch scratch;
+    std::vector<Contact> want;
+    ASSERT_TRUE(collideSphere(welded, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
+    std::vector<Vec3> ungrouped;
+    collideEach(ungrouped);
+    if (ungrouped.size() > want.size()) ++ghosts_without_group;
+    if (!want.empty()) ++seam_cases;
+  }
+  ASSERT_TRUE(ode::makeGroup(geoms.data(), static_cast<int>(geoms.size())).isOk());
+  rng = scenes::Rng(5);
+  for (int trial = 0; trial < 300; ++trial) {
+    const Vec3 c(std::round(rng.uniform(0.6, 3.4)) + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6),
+                 rng.uniform(0.05, 0.3));
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    QueryScratch scratch;
+    std::vector<Contact> want;
+    ASSERT_TRUE(collideSphere(welded, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
+    std::vector<Vec3> grouped;
+    collideEach(grouped);
+    dContactGeom helper[16];
+    const int nh = ode::collideWithGroup(sphere, geoms.data(), static_cast<int>(geoms.size()), 16, helper,
+                                         sizeof(dContactGeom));
+    ASSERT_EQ(grouped.size(), want.size()) << "centre " << str(c);
+    ASSERT_EQ(nh, static_cast<int>(want.size())) << "centre " << str(c);
+    // The sphere has one contact per kept triangle: compare the normal sets.
+    auto sorted = [](std::vector<Vec3> v) {
+      std::sort(v.begin(), v.end(), [](const Vec3& a, const Vec3& b) {
+        return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+      });
+      return v;
+    };
+    std::vector<Vec3> expected, from_helper;
+    for (const Contact& w : want) expected.push_back(w.normal);  // (shape, piece): into the shape
+    for (int i = 0; i < nh; ++i) {
+      from_helper.push_back(vec(helper[i].normal));
+      EXPECT_EQ(helper[i].g1, sphere);
+      EXPECT_EQ(helper[i].side1, -1);
+      EXPECT_NE(std::find(geoms.begin(), geoms.end(), helper[i].g2), geoms.end());
+    }
+    const auto e = sorted(expected), g = sorted(grouped), h = sorted(from_helper);
+    for (std::size_t i = 0; i < e.size(); ++i) {
+      EXPECT_LE((e[i] - g[i]).norm(), 1e-12) << "centre " << str(c);
+      EXPECT_LE((e[i] - h[i]).norm(), 1e-12) << "centre " << str(c);
+    }
+  }
+  EXPECT_GT(seam_cases, 100);
+  EXPECT_GT(ghosts_without_group, 10) << "ungrouped tiles must show seam contacts, or the test shows nothing";
+  for (dGeomID g : geoms) ode::leaveGroup(g);
+  dGeomDestroy(sphere);
+}
+
+// ODE's own collider, fed through the triangle filter, only ever sees the
+// triangles the core keeps (its contacts' triangles).
+TEST(OdeConventions, TriangleFilterPassesOnlyKeptTriangles) {
+  Session session;  // native colliders
+  const scenes::SceneMesh scene = scenes::flatFloor(8, 8, 0.5, 17);
+  OdeMesh om(scene);
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(scene.vertices, scene.indices).isOk());
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  scenes::Rng rng(8);
+  int filtered_away = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const Vec3 c(rng.uniform(0.5, 3.5), rng.uniform(0.5, 3.5), rng.uniform(0.1, 0.3));
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    ode::detachTriangleFilter(om.geom);
+    dContactGeom native[32];
+    const int nn = dCollide(om.geom, sphere, 32, native, sizeof(dContactGeom));
+    ASSERT_TRUE(ode::attachTriangleFilter(om.geom).isOk());
+    dContactGeom filtered[32];
+    const int nf = dCollide(om.geom, sphere, 32, filtered, sizeof(dContactGeom));
+    QueryScratch scratch;
+    std::vector<Contact> want;
+    ASSERT_TRUE(collideSphere(mesh, Sphere{c, 0.3}, QuerySettings(), scratch, want).isOk());
+    for (int i = 0; i < nf; ++i) {
+      bool kept = false;
+      for (const Contact& w : want) kept |= static_cast<int>(w.triangle) == filtered[i].side1;
+      EXPECT_TRUE(kept) << "triangle " << filtered[i].side1 << " is not kept by the filter; centre " << str(c);
+    }
+    EXPECT_LE(nf, nn);
+    filtered_away += nn - nf;
+  }
+  EXPECT_GT(filtered_away, 50) << "the placements must give ODE neighbouring-triangle contacts to filter";
+  dGeomDestroy(sphere);
+}
+
+void recordError(const Status& status, dGeomID, dGeomID, void* user) {
+  static_cast<std::vector<Status>*>(user)->push_back(status);
+}
+
+// A failed query gives no contact, is counted, and reaches the handler.
+TEST(OdeConventions, ErrorsAreReportedNotPrinted) {
+  Session session;
+  std::vector<Status> seen;
+  ode::Settings settings;
+  settings.on_error = &recordError;
+  settings.user_data = &seen;
+  ASSERT_TRUE(ode::installColliders(settings).isOk());
+  ode::resetStatistics();
+  OdeMesh om(scenes::flatFloor(4, 4, 0.5, 2));
+  const std::vector<dReal> points = convexPoints();
+  static const dReal planes[] = {0, 0, 1, 0.28};
+  static const unsigned polygons[] = {3, 0, 2, 4};
+  // dCreateConvex directly: ODE never tells us its points.
+  dGeomID convex = dCreateConvex(nullptr, planes, 1, points.data(), static_cast<unsigned>(points.size() / 3), polygons);
+  dGeomSetPosition(convex, 1.0, 1.0, 0.1);
+  dContactGeom c[8];
+  EXPECT_EQ(dCollide(om.geom, convex, 8, c, sizeof(dContactGeom)), 0);
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].code(), ErrorCode::kInvalidShape);
+  EXPECT_NE(ode::lastError().find("registerConvex"), std::string::npos) << ode::lastError();
+  EXPECT_EQ(ode::statistics().errors, 1u);
+  // Registered, the same geom collides.
+  ASSERT_TRUE(ode::registerConvex(convex, points.data(), static_cast<unsigned>(points.size() / 3)).isOk());
+  EXPECT_GT(dCollide(om.geom, convex, 8, c, sizeof(dContactGeom)), 0);
+  EXPECT_EQ(ode::statistics().errors, 1u);
+  ode::unregisterConvex(convex);
+  dGeomDestroy(convex);
+
+  EXPECT_EQ(ode::installColliders([] {
+              ode::Settings s;
+              s.query.contact_distance = -1;
+              return s;
+            }())
+                .code(),
+            ErrorCode::kInvalidSettings);
+}
+
+// Two threads collide their own sphere geoms with their own trimesh geoms over
+// the same data (one cached BVH, one scratch per thread): same contacts as a
+// single thread.
+TEST(OdeConventions, ThreadsShareTheCacheAndGetTheSameContacts) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const scenes::SceneMesh scene = scenes::sineTerrain(16, 16, 0.5, 0.3, 3.0, 4);
+  std::vector<double> v = scene.vertices;
+  std::vector<dTriIndex> idx(scene.indices.begin(), scene.indices.end());
+  dTriMeshDataID data = dGeomTriMeshDataCreate();
+  ASSERT_TRUE(ode::buildTriMeshDataDouble(data, v.data(), 3 * sizeof(double), static_cast<int>(v.size() / 3),
+                                          idx.data(), static_cast<int>(idx.size()), 3 * sizeof(dTriIndex))
+                  .isOk());
+  constexpr int kTrials = 3000;
+  auto run = [&](std::vector<double>& depths) {
+    dAllocateODEDataForThread(dAllocateMaskAll);
+    dGeomID mesh = dCreateTriMesh(nullptr, data, nullptr, nullptr, nullptr);
+    dGeomID sphere = dCreateSphere(nullptr, 0.4);
+    scenes::Rng rng(77);
+    for (int t = 0; t < kTrials; ++t) {
+      dGeomSetPosition(sphere, rng.uniform(0.5, 7.5), rng.uniform(0.5, 7.5), rng.uniform(-0.3, 0.6));
+      dContactGeom c[16];
+      const int n = dCollide(mesh, sphere, 16, c, sizeof(dContactGeom));
+      for (int i = 0; i < n; ++i) depths.push_back(c[i].depth + 10.0 * c[i].side1);
+      depths.push_back(-1.0);
+    }
+    dGeomDestroy(sphere);
+    dGeomDestroy(mesh);
+  };
+  std::vector<double> single, a, b;
+  run(single);
+  std::thread ta([&] { run(a); dCleanupODEAllDataForThread(); });
+  std::thread tb([&] { run(b); dCleanupODEAllDataForThread(); });
+  ta.join();
+  tb.join();
+  EXPECT_EQ(a, single);
+  EXPECT_EQ(b, single);
+  EXPECT_GT(single.size(), static_cast<std::size_t>(kTrials) + 500);
+  ode::destroyTriMeshData(data);
+}
+
+// dCloseODE + dInitODE2 gives ODE's own colliders back (what the simulation
+// tests rely on to compare both in one process).
+TEST(OdeConventions, ReinitialisingOdeRestoresNativeColliders) {
+  const scenes::SceneMesh scene = scenes::flatFloor(4, 4, 0.5, 1);
+  // A sphere whose bottom straddles a diagonal: ODE's native collider adds
+  // the neighbour's edge contact, the override keeps one.
+  auto count = [&](bool install) {
+    Session session;
+    if (install) {
+      EXPECT_TRUE(ode::installColliders().isOk());
+    }
+    OdeMesh om(scene);
+    dGeomID sphere = dCreateSphere(nullptr, 0.25);
+    dGeomSetPosition(sphere, 0.6, 0.6, 0.24);
+    dContactGeom c[16];
+    const int n = dCollide(om.geom, sphere, 16, c, sizeof(dContactGeom));
+    dGeomDestroy(sphere);
+    return n;
+  };
+  const int native_before = count(false);
+  EXPECT_EQ(count(true), 1);
+  EXPECT_EQ(count(false), native_before);
+  EXPECT_GT(native_before, 1);
+}
+
+}  // namespace
+}  // namespace meshcontact::odetest

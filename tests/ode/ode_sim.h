@@ -1,0 +1,311 @@
+#pragma once
+// A small ODE simulation harness for the adapter's tests: one ODE session per
+// run (so every run starts from ODE's native collider table), a ground made
+// of one or several trimesh pieces (or an analytic plane), bodies, a near
+// callback that counts contacts per body, and per-step observation.
+//
+// Parameters (DESIGN.md §5): dt = 1/120, gravity 9.81, dWorldQuickStep,
+// world CFM 1e-5 and ERP 0.2 (ODE's documented defaults), dContactApprox1
+// friction. With these a rolling sphere sinks ~0.3 mm into the ground, which
+// is what lets ODE's native trimesh collider create the neighbouring
+// triangles' edge contacts that make it hop.
+#include <meshcontact/ode.h>
+#include <meshcontact_scenes/scenes.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace meshcontact::odetest {
+
+enum class Mode {
+  kPlane,           // dCreatePlane z = 0: the analytic reference
+  kNative,          // ODE's own trimesh colliders
+  kOverride,        // meshcontact::ode::installColliders
+  kTriangleFilter,  // ODE's colliders + meshcontact::ode::attachTriangleFilter
+};
+
+inline const char* name(Mode m) {
+  switch (m) {
+    case Mode::kPlane: return "ODE plane";
+    case Mode::kNative: return "ODE native trimesh";
+    case Mode::kOverride: return "meshcontact override";
+    case Mode::kTriangleFilter: return "meshcontact triangle filter";
+  }
+  return "?";
+}
+
+/// dInitODE2 ... dCloseODE. The collider table is reset by dCloseODE, so a
+/// run in kNative mode after a kOverride run sees ODE's own colliders again.
+/// dWorldQuickStep reorders constraints with ODE's global random generator;
+/// every session restarts it from the same seed, so that two runs differ
+/// only by their contacts, not by the solver's random sequence.
+class Session {
+ public:
+  Session() {
+    dInitODE2(0);
+    dAllocateODEDataForThread(dAllocateMaskAll);
+    dRandSetSeed(0);
+  }
+  ~Session() {
+    ode::clearAll();
+    dCloseODE();
+  }
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+};
+
+struct WorldParams {
+  double mu = 1.0;            // Coulomb friction (dContactApprox1)
+  double cfm = 1e-5;          // world CFM
+  double erp = 0.2;           // world ERP
+  int max_contacts = 32;      // the budget given to dCollide per pair
+  bool group_pieces = true;   // makeGroup over the ground pieces (override / filter)
+  bool body_body = true;      // collide bodies with each other
+  double rolling_friction = 0.0;  // dContactRolling rho (0: off): a rolling sphere otherwise never stops
+};
+
+struct BodyStats {
+  int contacts = 0;  // contacts with the ground in the last step
+};
+
+class World {
+ public:
+  World(Mode mode, const std::vector<scenes::SceneMesh>& pieces, const WorldParams& params = WorldParams())
+      : mode_(mode), params_(params) {
+    world_ = dWorldCreate();
+    dWorldSetGravity(world_, 0, 0, -9.81);
+    dWorldSetCFM(world_, params.cfm);
+    dWorldSetERP(world_, params.erp);
+    space_ = dHashSpaceCreate(nullptr);
+    joints_ = dJointGroupCreate(0);
+    if (mode == Mode::kOverride) {
+      const Status s = ode::installColliders();
+      EXPECT_TRUE(s.isOk()) << s.message();
+    }
+    if (mode == Mode::kPlane) {
+      ground_.push_back(dCreatePlane(space_, 0, 0, 1, 0));
+    } else {
+      for (const scenes::SceneMesh& piece : pieces) addPiece(piece);
+      if (params.group_pieces && ground_.size() > 1 && mode != Mode::kNative) {
+        const Status s = ode::makeGroup(ground_.data(), static_cast<int>(ground_.size()));
+        EXPECT_TRUE(s.isOk()) << s.message();
+      }
+    }
+  }
+  ~World() {
+    for (dGeomID g : ground_)
+      if (dGeomGetClass(g) == dTriMeshClass) ode::leaveGroup(g);
+    dJointGroupDestroy(joints_);
+    dSpaceDestroy(space_);  // destroys the geoms in it
+    dWorldDestroy(world_);
+    for (dTriMeshDataID d : data_) ode::destroyTriMeshData(d);
+  }
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  dWorldID world() const { return world_; }
+  const std::vector<dGeomID>& ground() const { return ground_; }
+
+  dBodyID addBody(dGeomID geom, const dMass& mass, const Vec3& position, const Mat3& rotation = Mat3::Identity()) {
+    dBodyID b = dBodyCreate(world_);
+    dBodySetMass(b, &mass);
+    dGeomSetBody(geom, b);
+    dBodySetPosition(b, position.x(), position.y(), position.z());
+    dMatrix3 R;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) R[4 * i + j] = rotation(i, j);
+      R[4 * i + 3] = 0;
+    }
+    dBodySetRotation(b, R);
+    bodies_.push_back(b);
+    stats_[b] = BodyStats();
+    return b;
+  }
+  dBodyID addSphere(double radius, const Vec3& position, double density = 1000) {
+    dMass m;
+    dMassSetSphere(&m, density, radius);
+    return addBody(dCreateSphere(space_, radius), m, position);
+  }
+  dBodyID addBox(const Vec3& sides, const Vec3& position, const Mat3& rotation = Mat3::Identity(),
+                 double density = 1000) {
+    dMass m;
+    dMassSetBox(&m, density, sides.x(), sides.y(), sides.z());
+    return addBody(dCreateBox(space_, sides.x(), sides.y(), sides.z()), m, position, rotation);
+  }
+  /// Axis along the body's local z (ODE's convention); `length` is the segment's.
+  dBodyID addCapsule(double radius, double length, const Vec3& position, const Mat3& rotation,
+                     double density = 1000) {
+    dMass m;
+    dMassSetCapsule(&m, density, 3, radius, length);
+    return addBody(dCreateCapsule(space_, radius, length), m, position, rotation);
+  }
+  dBodyID addCylinder(double radius, double length, const Vec3& position, const Mat3& rotation,
+                      double density = 1000) {
+    dMass m;
+    dMassSetCylinder(&m, density, 3, radius, length);
+    return addBody(dCreateCylinder(space_, radius, length), m, position, rotation);
+  }
+
+  /// The contacts of the last step, for inspection: (body geom, contact).
+  struct Seen {
+    dGeomID shape;
+    dContactGeom geom;
+  };
+  const std::vector<Seen>& lastContacts() const { return seen_; }
+  const BodyStats& stats(dBodyID b) const { return stats_.at(b); }
+
+  void step(double dt = 1.0 / 120.0) {
+    for (auto& kv : stats_) kv.second.contacts = 0;
+    seen_.clear();
+    dSpaceCollide(space_, this, &World::nearCallback);
+    dWorldQuickStep(world_, dt);
+    dJointGroupEmpty(joints_);
+  }
+
+ private:
+  void addPiece(const scenes::SceneMesh& piece) {
+    dTriMeshDataID d = dGeomTriMeshDataCreate();
+    // ODE keeps pointers into these arrays: keep them alive with the world.
+    vertices_.push_back(piece.vertices);
+    indices_.emplace_back(piece.indices.begin(), piece.indices.end());
+    const std::vector<double>& v = vertices_.back();
+    const std::vector<dTriIndex>& idx = indices_.back();
+    if (mode_ == Mode::kNative) {
+      dGeomTriMeshDataBuildDouble(d, v.data(), 3 * sizeof(double), static_cast<int>(v.size() / 3), idx.data(),
+                                  static_cast<int>(idx.size()), 3 * sizeof(dTriIndex));
+    } else {
+      const Status s = ode::buildTriMeshDataDouble(d, v.data(), 3 * sizeof(double), static_cast<int>(v.size() / 3),
+                                                   idx.data(), static_cast<int>(idx.size()), 3 * sizeof(dTriIndex));
+      EXPECT_TRUE(s.isOk()) << s.message();
+    }
+    data_.push_back(d);
+    dGeomID g = dCreateTriMesh(space_, d, nullptr, nullptr, nullptr);
+    if (mode_ == Mode::kTriangleFilter) {
+      const Status s = ode::attachTriangleFilter(g);
+      EXPECT_TRUE(s.isOk()) << s.message();
+    }
+    ground_.push_back(g);
+  }
+
+  bool isGround(dGeomID g) const { return std::find(ground_.begin(), ground_.end(), g) != ground_.end(); }
+
+  static void nearCallback(void* self_ptr, dGeomID a, dGeomID b) {
+    World& self = *static_cast<World*>(self_ptr);
+    const bool ga = self.isGround(a), gb = self.isGround(b);
+    if (ga && gb) return;
+    if (!ga && !gb && !self.params_.body_body) return;
+    std::vector<dContact>& c = self.buffer_;
+    c.resize(static_cast<std::size_t>(self.params_.max_contacts));
+    const int n = dCollide(a, b, self.params_.max_contacts, &c[0].geom, sizeof(dContact));
+    dBodyID b1 = dGeomGetBody(a), b2 = dGeomGetBody(b);
+    for (int i = 0; i < n; ++i) {
+      c[i].surface.mode = dContactApprox1;
+      c[i].surface.mu = self.params_.mu;
+      if (self.params_.rolling_friction > 0) {
+        c[i].surface.mode |= dContactRolling;
+        c[i].surface.rho = c[i].surface.rho2 = self.params_.rolling_friction;
+        c[i].surface.rhoN = 0;
+      }
+      dJointID j = dJointCreateContact(self.world_, self.joints_, &c[i]);
+      dJointAttach(j, b1, b2);
+      if (ga || gb) self.seen_.push_back({ga ? b : a, c[i].geom});
+    }
+    if (ga && b2) self.stats_[b2].contacts += n;
+    if (gb && b1) self.stats_[b1].contacts += n;
+  }
+
+  Mode mode_;
+  WorldParams params_;
+  dWorldID world_ = nullptr;
+  dSpaceID space_ = nullptr;
+  dJointGroupID joints_ = nullptr;
+  std::vector<dGeomID> ground_;
+  std::vector<dTriMeshDataID> data_;
+  std::vector<std::vector<double>> vertices_;
+  std::vector<std::vector<dTriIndex>> indices_;
+  std::vector<dBodyID> bodies_;
+  std::map<dBodyID, BodyStats> stats_;
+  std::vector<dContact> buffer_;
+  std::vector<Seen> seen_;
+};
+
+inline Vec3 position(dBodyID b) {
+  const dReal* p = dBodyGetPosition(b);
+  return Vec3(p[0], p[1], p[2]);
+}
+inline Vec3 velocity(dBodyID b) {
+  const dReal* v = dBodyGetLinearVel(b);
+  return Vec3(v[0], v[1], v[2]);
+}
+inline Vec3 angularVelocity(dBodyID b) {
+  const dReal* w = dBodyGetAngularVel(b);
+  return Vec3(w[0], w[1], w[2]);
+}
+inline void setVelocity(dBodyID b, const Vec3& v, const Vec3& w) {
+  dBodySetLinearVel(b, v.x(), v.y(), v.z());
+  dBodySetAngularVel(b, w.x(), w.y(), w.z());
+}
+
+/// Rotation taking local z to world y (a capsule or cylinder lying along y).
+inline Mat3 axisAlongY() {
+  Mat3 r;
+  r << 1, 0, 0,  //
+      0, 0, -1,  //
+      0, 1, 0;
+  return r;
+}
+
+/// The figures of one body over one run (DESIGN.md §5).
+struct Peaks {
+  double up_velocity = 0.0;       // max of v_z (m/s)
+  double height_deviation = 0.0;  // max |z - z_launch| (m)
+  double angular_velocity = 0.0;  // max |w| (rad/s)
+  int max_contacts = 0;           // ground contacts in one step
+  double mean_contacts = 0.0;
+  bool finite = true;
+};
+
+/// Steps `steps` times, recording the body's peaks relative to its state at
+/// the first step.
+inline Peaks track(World& world, dBodyID body, int steps, const std::function<void(int)>& each = nullptr) {
+  Peaks p;
+  const double z0 = position(body).z();
+  long total = 0;
+  for (int i = 0; i < steps; ++i) {
+    world.step();
+    if (each) each(i);
+    const Vec3 x = position(body), v = velocity(body), w = angularVelocity(body);
+    if (!x.allFinite() || !v.allFinite() || !w.allFinite()) p.finite = false;
+    p.up_velocity = std::max(p.up_velocity, v.z());
+    p.height_deviation = std::max(p.height_deviation, std::abs(x.z() - z0));
+    p.angular_velocity = std::max(p.angular_velocity, w.norm());
+    const int c = world.stats(body).contacts;
+    p.max_contacts = std::max(p.max_contacts, c);
+    total += c;
+  }
+  p.mean_contacts = steps > 0 ? static_cast<double>(total) / steps : 0.0;
+  return p;
+}
+
+inline std::string describe(const Peaks& p) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "peak v_up %.3g m/s, peak |dz| %.3g m, peak |w| %.3g rad/s, contacts/step max %d mean %.2f",
+                p.up_velocity, p.height_deviation, p.angular_velocity, p.max_contacts, p.mean_contacts);
+  return buf;
+}
+
+/// One line of the figures table (printed by the tests, collected in the report).
+inline void printRow(const std::string& scene, Mode mode, const Peaks& p) {
+  std::printf("| %-34s | %-28s | %9.3g | %9.3g | %9.3g | %3d | %5.2f |\n", scene.c_str(), name(mode), p.up_velocity,
+              p.height_deviation, p.angular_velocity, p.max_contacts, p.mean_contacts);
+  std::fflush(stdout);
+}
+
+}  // namespace meshcontact::odetest
