@@ -571,7 +571,8 @@ struct BoxNarrowphase {
           if (std::abs(N[k]) > std::abs(N[i])) i = k;
         if (1.0 - std::abs(N[i]) <= 1e-12) {  // a box face facing the edge / vertex
           N = Vec3::Zero();
-          N[i] = pair.b[i] > pair.t[i] ? 1.0 : -1.0;
+          // Touching (b == t): the side the triangle faces, never its back.
+          N[i] = pair.b[i] != pair.t[i] ? (pair.b[i] > pair.t[i] ? 1.0 : -1.0) : (n[i] >= 0.0 ? 1.0 : -1.0);
           referenceFace(v, i, N[i], e, poly);
         } else {
           poly.pts[0] = pair.b;
