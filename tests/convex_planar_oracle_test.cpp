@@ -1,8 +1,11 @@
 // Planar oracle (DESIGN.md §5) for support shapes: on a planar tessellation
 // every valid normal is the plane's. 10,000 seeded placements per shape on a
 // welded floor with random diagonals and on a floor of separate tiles
-// queried together; plus: a penetrating shape always gets a contact, and the
-// result is identical under any permutation of the candidate triangles.
+// queried together; plus: a penetrating shape always gets a contact, the
+// deepest contact's depth is exactly the shape's lowest point's depth, and
+// the result is identical under any permutation of the candidate triangles.
+// Counts are printed per penetration band (separated, < margin: the core
+// clear of the floor, >= margin: the deep path).
 #include "test_support.h"
 
 #include <meshcontact/convex.h>

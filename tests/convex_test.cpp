@@ -1,7 +1,10 @@
 // Support shapes (general convex, hull, cylinder) through the whole pipeline:
-// per-region checks against the sphere's closed form, consistency with the
-// solid box (libccd GJK/EPA directly), the cliff / groove / ridge scenes, and
-// bad input.
+// per-region checks against closed forms (the sphere's; a box corner rounded
+// by its margin) and an exact box-triangle reference for the deep path,
+// consistency of the rounded shapes with the sharp ones against a solid box
+// (libccd GJK/EPA directly), the cliff / groove / ridge scenes, margins and
+// cores (the rounded shape inside the sharp one, contacts on its surface),
+// invariance under a rigid motion far from the origin, and bad input.
 #include "test_support.h"
 
 #include <meshcontact/convex.h>
@@ -682,12 +685,29 @@ TEST(ConvexMargin, HullCoreStaysInsideAndKeepsTheFaces) {
   cases.push_back({"hull32 a", randomHullPoints(5, 32, Vec3(0.35, 0.28, 0.21)), 0.1});
   cases.push_back({"hull32 b", randomHullPoints(17, 32, Vec3(0.5, 0.4, 0.3)), 0.1});
   cases.push_back({"hull100", randomHullPoints(23, 100, Vec3(2.0, 1.0, 0.5)), 0.1});
+  // Nearly degenerate: clusters of points 1e-6 apart on a 0.25 grid (sliver
+  // facets everywhere), and a slab 1000 times thinner than it is wide.
+  {
+    scenes::Rng rng(99);
+    std::vector<Vec3> clusters, slab;
+    for (int i = 0; i < 60; ++i) {
+      const Vec3 u = rng.unitVector();
+      clusters.push_back((4.0 * u).array().round().matrix() / 4.0 + 1e-6 * rng.unitVector());
+    }
+    for (int i = 0; i < 40; ++i) {
+      const Vec3 u = rng.unitVector();
+      slab.push_back(Vec3(u.x(), u.y(), 1e-3 * u.z()));
+    }
+    cases.push_back({"clustered grid", clusters, 0.1});
+    cases.push_back({"thin slab", slab, 0.1});
+  }
   std::vector<Vec3> grid;  // 27 points: corners, edge and face midpoints, the centre
   for (int i = 0; i < 27; ++i) grid.push_back(Vec3(i % 3 - 1.0, (i / 3) % 3 - 1.0, i / 9 - 1.0) * 1e3);
   cases.push_back({"grid 1e3", grid, 1e-9});
   for (const Case& c : cases) {
     ConvexHull hull;
-    ASSERT_TRUE(hull.build(c.points).isOk()) << c.name;
+    const Status built = hull.build(c.points);
+    ASSERT_TRUE(built.isOk()) << c.name << ": " << built.message();
     double diameter = 0.0;
     for (const Vec3& p : c.points)
       for (const Vec3& q : c.points) diameter = std::max(diameter, (p - q).norm());
@@ -716,6 +736,58 @@ TEST(ConvexMargin, HullCoreStaysInsideAndKeepsTheFaces) {
   ASSERT_TRUE(sharp.build(octa, 0.0).isOk());
   EXPECT_EQ(sharp.margin(), 0.0);
   EXPECT_EQ(sharp.corePoints().size(), 6u);
+}
+
+// Point sets of up to 300 points, many nearly degenerate, too many for the
+// brute-force facets above: the rounded hull must stay inside the sharp one
+// along 2,000 random directions each (support values compared), with finite
+// support points everywhere. Six kinds: points on a sphere, a slab 1000
+// times thinner than wide, clusters of points 1e-7 apart on a 0.25 grid
+// (sliver facets everywhere: a tolerance-based hull builder turned them into
+// planes cutting the set, and the rounded hull poked out by 1e-3 of its
+// size, first at set 38), points filling a cube, a sphere 1e5 from the
+// origin, a needle.
+TEST(ConvexMargin, HullsOfManyPointsStayInside) {
+  scenes::Rng rng(99);
+  int built = 0;
+  for (int t = 0; t < 48; ++t) {
+    const int kind = t % 6;
+    const int n = 8 + (t * 37) % 300;
+    std::vector<Vec3> points;
+    for (int i = 0; i < n; ++i) {
+      const Vec3 u = rng.unitVector();
+      switch (kind) {
+        case 0: points.push_back(u); break;
+        case 1: points.push_back(Vec3(u.x(), u.y(), 1e-3 * u.z())); break;
+        case 2: points.push_back((4.0 * u).array().round().matrix() / 4.0 + 1e-7 * rng.unitVector()); break;
+        case 3: points.push_back(Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1))); break;
+        case 4: points.push_back(1e4 * u + Vec3(1e5, 0, 0)); break;
+        default: points.push_back(Vec3(10 * u.x(), 0.1 * u.y(), 0.1 * u.z())); break;
+      }
+    }
+    ConvexHull hull;
+    const Status s = hull.build(points);
+    if (!s.isOk()) {
+      // Only a clustered set may be refused, and only for two points closer
+      // than 1e-9 of its size.
+      EXPECT_EQ(kind, 2) << "set " << t << ": " << s.message();
+      EXPECT_NE(s.message().find("coincide"), std::string::npos) << s.message();
+      continue;
+    }
+    ++built;
+    Vec3 lo = points[0], hi = points[0];
+    for (const Vec3& p : points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    const double diameter = (hi - lo).norm();
+    for (int k = 0; k < 2000; ++k) {
+      const Vec3 u = rng.unitVector();
+      double sharp = -std::numeric_limits<double>::infinity();
+      for (const Vec3& p : points) sharp = std::max(sharp, p.dot(u));
+      const Vec3 q = hull.shapeSupport(u);
+      ASSERT_TRUE(q.allFinite()) << "set " << t;
+      EXPECT_LE(q.dot(u), sharp + 1e-11 * diameter) << "set " << t << " kind " << kind << " direction " << str(u);
+    }
+  }
+  EXPECT_GE(built, 44);
 }
 
 TEST(ConvexMargin, CylinderHasRoundedRimsAndExactFaces) {
@@ -811,7 +883,9 @@ TEST(ConvexMargin, ContactsLieOnTheRoundedSurface) {
       EXPECT_NEAR(coreDistance(c.point), m, 1e-9 * size) << config << " point " << str(c.point);
       ++checked;
     }
-    if (height <= 0.0) EXPECT_FALSE(contacts.empty()) << config;
+    if (height <= 0.0) {
+      EXPECT_FALSE(contacts.empty()) << config;
+    }
   }
   EXPECT_GT(checked, 1500);
 }

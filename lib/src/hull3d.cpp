@@ -9,18 +9,38 @@ namespace meshcontact::detail {
 
 namespace {
 
+// Exact orientation. The points are snapped to a grid of 2^-38 of their
+// bounding box (3.6e-12 of its size: far below any tolerance that matters
+// here), so coordinate differences are integers below 2^39 and the 3x3
+// determinant, a sum of products of three such numbers, is below 2^120:
+// exact in 128-bit integers. With an exact predicate the incremental hull is
+// correct by construction (its visible regions are discs), however nearly
+// coplanar or collinear the input: sliver facets between points 1e-7 apart
+// come out right instead of tilting and cutting points off.
+#if defined(__SIZEOF_INT128__)
+__extension__ typedef __int128 Wide;  // __extension__: GCC and Clang, quiet under -Wpedantic
+#else
+using Wide = long double;  // not exact: compilers without 128-bit integers fall back to rounding
+#endif
+
+struct GridPoint {
+  std::int64_t x, y, z;
+};
+
+int orient(const GridPoint& a, const GridPoint& b, const GridPoint& c, const GridPoint& d) {
+  const Wide bx = b.x - a.x, by = b.y - a.y, bz = b.z - a.z;
+  const Wide cx = c.x - a.x, cy = c.y - a.y, cz = c.z - a.z;
+  const Wide dx = d.x - a.x, dy = d.y - a.y, dz = d.z - a.z;
+  const Wide det = bx * (cy * dz - cz * dy) - by * (cx * dz - cz * dx) + bz * (cx * dy - cy * dx);
+  return det > 0 ? 1 : (det < 0 ? -1 : 0);
+}
+
 struct Facet {
   int v[3];   // counter-clockwise seen from outside
   int nb[3];  // facet across edge k = (v[k], v[k+1])
-  Vec3 normal;
-  double offset;
   bool alive;
   std::uint32_t mark;  // visited in the insertion with this stamp
 };
-
-Vec3 facetNormal(const Vec3* p, int a, int b, int c, const Vec3& fallback) {
-  return normalizedOr((p[b] - p[a]).cross(p[c] - p[a]), fallback);
-}
 
 int edgeIndex(const Facet& f, int a, int b) {  // k with (v[k], v[k+1]) == (a, b), or -1
   for (int k = 0; k < 3; ++k)
@@ -30,17 +50,24 @@ int edgeIndex(const Facet& f, int a, int b) {  // k with (v[k], v[k+1]) == (a, b
 
 }  // namespace
 
-// Robustness: the visible region of a new point is grown from its most
-// visible facet across facet adjacency (so it is connected), facets it
-// surrounds are added to it (no holes), and the point is inserted only if
-// the region's boundary is one simple cycle of edges. A point failing that
-// (possible only within rounding of the current hull) is skipped: the hull
-// then misses it by about the tolerance, and the final offsets (support
-// values over all points) still make every plane a supporting one.
 bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPlane>& planes) {
   planes.clear();
   if (count < 4 || !(tol > 0.0)) return false;
   const int n = static_cast<int>(count);
+  Vec3 lo = p[0], hi = p[0];
+  for (int i = 1; i < n; ++i) {
+    lo = lo.cwiseMin(p[i]);
+    hi = hi.cwiseMax(p[i]);
+  }
+  const double extent = (hi - lo).maxCoeff();
+  if (!(extent > 0.0) || !std::isfinite(extent)) return false;
+  const double cell = std::ldexp(extent, -38);
+  std::vector<GridPoint> g(count);
+  for (int i = 0; i < n; ++i) {
+    const Vec3 q = (p[i] - lo) / cell;
+    g[i] = {std::llround(q.x()), std::llround(q.y()), std::llround(q.z())};
+  }
+
   // Initial tetrahedron: extreme in x, farthest from it, from their line,
   // from their plane (each step's distance must exceed the tolerance).
   int i0 = 0;
@@ -65,22 +92,22 @@ bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPl
     const double d = std::abs(normal.dot(p[i] - p[i0]));
     if (d > best) best = d, i3 = i;
   }
-  if (!(best > tol)) return false;
+  if (!(best > tol) || orient(g[i0], g[i1], g[i2], g[i3]) == 0) return false;
 
   std::vector<Facet> facets;
   const int tet[4] = {i0, i1, i2, i3};
   for (int k = 0; k < 4; ++k) {
     int a = tet[k], b = tet[(k + 1) % 4], c = tet[(k + 2) % 4];
     const int d = tet[(k + 3) % 4];
-    if ((p[b] - p[a]).cross(p[c] - p[a]).dot(p[d] - p[a]) > 0.0) std::swap(b, c);
-    const Vec3 nf = facetNormal(p, a, b, c, Vec3::UnitX());
-    facets.push_back({{a, b, c}, {-1, -1, -1}, nf, nf.dot(p[a]), true, 0});
+    if (orient(g[a], g[b], g[c], g[d]) > 0) std::swap(b, c);  // the fourth point inside
+    facets.push_back({{a, b, c}, {-1, -1, -1}, true, 0});
   }
   for (int f = 0; f < 4; ++f)
     for (int k = 0; k < 3; ++k)
-      for (int g = 0; g < 4; ++g)
-        if (g != f && edgeIndex(facets[g], facets[f].v[(k + 1) % 3], facets[f].v[k]) >= 0) facets[f].nb[k] = g;
+      for (int h = 0; h < 4; ++h)
+        if (h != f && edgeIndex(facets[h], facets[f].v[(k + 1) % 3], facets[f].v[k]) >= 0) facets[f].nb[k] = h;
 
+  auto sees = [&](const Facet& f, int i) { return orient(g[f.v[0]], g[f.v[1]], g[f.v[2]], g[i]) > 0; };
   std::vector<int> visible, stack;
   struct Edge {
     int a, b, outside;
@@ -90,16 +117,12 @@ bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPl
   for (int i = 0; i < n; ++i) {
     if (i == i0 || i == i1 || i == i2 || i == i3) continue;
     int start = -1;
-    double far = tol;
-    for (int f = 0; f < static_cast<int>(facets.size()); ++f)
-      if (facets[f].alive) {
-        const double d = facets[f].normal.dot(p[i]) - facets[f].offset;
-        if (d > far) far = d, start = f;
-      }
-    if (start < 0) continue;  // inside (or within the tolerance of) the current hull
+    for (int f = 0; f < static_cast<int>(facets.size()) && start < 0; ++f)
+      if (facets[f].alive && sees(facets[f], i)) start = f;
+    if (start < 0) continue;  // inside or on the current hull
     ++stamp;
     auto isVisible = [&](int f) { return facets[f].mark == stamp; };
-    // Connected visible region.
+    // The visible region (connected: grown across adjacency).
     visible.assign(1, start);
     facets[start].mark = stamp;
     stack.assign(1, start);
@@ -107,28 +130,15 @@ bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPl
       const int f = stack.back();
       stack.pop_back();
       for (int k = 0; k < 3; ++k) {
-        const int g = facets[f].nb[k];
-        if (isVisible(g) || !(facets[g].normal.dot(p[i]) - facets[g].offset > tol)) continue;
-        facets[g].mark = stamp;
-        visible.push_back(g);
-        stack.push_back(g);
+        const int h = facets[f].nb[k];
+        if (isVisible(h) || !sees(facets[h], i)) continue;
+        facets[h].mark = stamp;
+        visible.push_back(h);
+        stack.push_back(h);
       }
     }
-    // No holes: a facet whose three neighbours are visible is visible.
-    for (bool grew = true; grew;) {
-      grew = false;
-      for (std::size_t j = 0; j < visible.size(); ++j)
-        for (int k = 0; k < 3; ++k) {
-          const int g = facets[visible[j]].nb[k];
-          if (isVisible(g)) continue;
-          if (isVisible(facets[g].nb[0]) && isVisible(facets[g].nb[1]) && isVisible(facets[g].nb[2])) {
-            facets[g].mark = stamp;
-            visible.push_back(g);
-            grew = true;
-          }
-        }
-    }
-    // The horizon must be one simple cycle.
+    // Its boundary, one simple cycle (always, with exact orientation; the
+    // check guards the non-exact fallback: such a point is skipped).
     horizon.clear();
     for (int f : visible)
       for (int k = 0; k < 3; ++k)
@@ -141,7 +151,7 @@ bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPl
         int next = -1;
         for (std::size_t e = 0; e < horizon.size(); ++e)
           if (horizon[e].a == cycle.back().b) {
-            if (next >= 0) simple = false;  // a vertex the horizon passes twice
+            if (next >= 0) simple = false;
             next = static_cast<int>(e);
           }
         if (next < 0) simple = false;
@@ -149,36 +159,36 @@ bool hullPlanes(const Vec3* p, std::size_t count, double tol, std::vector<HullPl
       }
       simple = simple && cycle.back().b == cycle.front().a;
     }
-    if (!simple) {
-      ++stamp;  // forget the marks; skip this point
-      continue;
-    }
+    if (!simple) continue;
     for (int f : visible) facets[f].alive = false;
     const int first = static_cast<int>(facets.size());
     const int m = static_cast<int>(cycle.size());
     for (int e = 0; e < m; ++e) {
       const Edge& h = cycle[static_cast<std::size_t>(e)];
-      const Vec3 nf = facetNormal(p, h.a, h.b, i, facets[h.outside].normal);
-      facets.push_back({{h.a, h.b, i}, {h.outside, first + (e + 1) % m, first + (e + m - 1) % m}, nf, nf.dot(p[h.a]),
-                        true, 0});
+      facets.push_back({{h.a, h.b, i}, {h.outside, first + (e + 1) % m, first + (e + m - 1) % m}, true, 0});
       const int k = edgeIndex(facets[h.outside], h.b, h.a);
       if (k >= 0) facets[h.outside].nb[k] = first + e;
     }
   }
 
-  // Supporting planes, offsets from the points themselves; duplicates merged.
+  // Planes from the original points: unit normals of the facets, offsets
+  // the points' support values (so each is a supporting plane even where
+  // the normal of a sliver facet carries rounding); duplicates merged.
   for (const Facet& f : facets) {
     if (!f.alive) continue;
+    const Vec3 cross = (p[f.v[1]] - p[f.v[0]]).cross(p[f.v[2]] - p[f.v[0]]);
+    if (!(cross.squaredNorm() > 0.0)) continue;  // exactly flat in double: its neighbours carry the plane
+    const Vec3 normal_f = normalizedOr(cross, Vec3::UnitX());
     double offset = -std::numeric_limits<double>::infinity();
-    for (int i = 0; i < n; ++i) offset = std::max(offset, f.normal.dot(p[i]));
+    for (int i = 0; i < n; ++i) offset = std::max(offset, normal_f.dot(p[i]));
     bool merged = false;
     for (HullPlane& q : planes)
-      if ((q.normal - f.normal).norm() <= 1e-9) {
+      if ((q.normal - normal_f).norm() <= 1e-9) {
         q.offset = std::max(q.offset, offset);
         merged = true;
         break;
       }
-    if (!merged) planes.push_back({f.normal, offset});
+    if (!merged) planes.push_back({normal_f, offset});
   }
   return planes.size() >= 4;
 }

@@ -3,13 +3,14 @@
 // queries: incremental insertion (Preparata-Hong; de Berg et al.,
 // "Computational Geometry", ch. 11, without the conflict graph), O(n^2) for
 // n points, plenty for the few hundred points a support-shape hull has.
+// Orientation tests are exact (hull3d.cpp: points snapped to a 2^-38 grid of
+// their bounding box, 128-bit integer determinants), so nearly coplanar or
+// collinear input cannot make it cut points off.
 //
 // Only the face *planes* leave this file, and each plane's offset is the
-// point set's exact support value along its normal (max_i n . p_i). So a
-// facet whose normal came out inaccurate (a sliver, or a point within the
-// tolerance of a plane) still yields a valid supporting half-space, never
-// one that cuts the set; what rounding can do is miss a facet by at most the
-// tolerance, which ConvexHull's callers absorb.
+// point set's exact support value along its normal (max_i n . p_i): even the
+// rounded normal of a sliver facet yields a valid supporting half-space,
+// never one that cuts the set.
 
 #include "meshcontact/geometry.h"
 
@@ -25,9 +26,9 @@ struct HullPlane {
 };
 
 /// Planes of the facets of conv(points), one per distinct plane (facets
-/// whose unit normals agree within 1e-9 are merged). `tolerance` (absolute,
-/// > 0): a point within it of a facet's plane counts as on it. Returns false
-/// (planes empty) when the points do not span a volume at that tolerance.
+/// whose unit normals agree within 1e-9 are merged). Returns false (planes
+/// empty) when the points do not span a volume: no fourth point farther than
+/// `tolerance` (absolute, > 0) from the plane of the first three extremes.
 bool hullPlanes(const Vec3* points, std::size_t count, double tolerance, std::vector<HullPlane>& planes);
 
 }  // namespace meshcontact::detail

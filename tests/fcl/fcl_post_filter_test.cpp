@@ -138,10 +138,14 @@ void spheres(fcl::PostFilterMode mode) {
       }
       with_contacts += !in_mesh.empty();
       const auto score = scenes::SphereOracle::score(oracle.validNormals(local.translation, r), in_mesh);
-      if (recompute) EXPECT_EQ(score.ghosts, 0) << config;
+      if (recompute) {
+        EXPECT_EQ(score.ghosts, 0) << config;
+      }
       ghosts += score.ghosts;
       misses += score.misses;
-      if (raw.numContacts() > 0) EXPECT_FALSE(in_mesh.empty()) << "nothing valid may be dropped: " << config;
+      if (raw.numContacts() > 0) {
+        EXPECT_FALSE(in_mesh.empty()) << "nothing valid may be dropped: " << config;
+      }
       if (::testing::Test::HasFailure()) return;
     }
   }
@@ -224,8 +228,11 @@ void shapesOnFloor(const ShapeCase& shape, ::fcl::GJKSolverType solver, fcl::Pos
               recompute ? "kRecompute" : "kClassifyFcl", poses, raw_ghosts, raw_negative, ghosts, emptied);
   EXPECT_GT(poses, 1000);
   EXPECT_GT(raw_ghosts, 0);  // otherwise this test shows nothing
-  if (recompute) EXPECT_EQ(ghosts, 0);
-  else EXPECT_LT(ghosts, raw_ghosts);
+  if (recompute) {
+    EXPECT_EQ(ghosts, 0);
+  } else {
+    EXPECT_LT(ghosts, raw_ghosts);
+  }
   EXPECT_EQ(emptied, 0) << "a pose FCL found in contact lost all its contacts";
 }
 

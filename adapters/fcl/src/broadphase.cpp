@@ -104,9 +104,8 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     const ::fcl::CollisionObjectd& mo = *group_meshes[j];
     detail::MeshDesc mesh;
     detail::describeMesh(group_geometries[j], mesh);
-    const std::string name = "mesh " + std::to_string(j) + " of the group";
     Pose mesh_pose, shape_in_model;
-    s = detail::checkPair(mesh, mo, *shape_object, name.c_str(), "shape", mesh_pose, shape_in_model);
+    s = detail::checkPair(mesh, mo, *shape_object, "a mesh of the group", "shape", mesh_pose, shape_in_model);
     if (!s) return s;
     const bool same_frame = mo.getTransform().matrix() == frame_tf.matrix();
     const Pose to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);

@@ -232,41 +232,66 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
 
   Scratch::Impl& sc = scratch.impl();
   sc.candidates.clear();
+  sc.contacts.clear();
   const detail::QueryVolume volume = detail::makeQueryVolume(shape, shape_in_model, cd);
   const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh.geometry) : nullptr;
-  const bool keyed = compact != nullptr;
+  const std::size_t room = request.num_max_contacts - have;
+  // Collision checking: a boolean request wanting one contact stops at the
+  // first triangle in contact. One candidate at a time gives a contact
+  // exactly when the whole query would give some (the filter never voids
+  // the first patch it processes), so the answer is the same.
+  const bool checking = !request.enable_contact && room == 1 && options.settings.trace == nullptr;
+
+  // The per-candidate test of collision checking. Only a triangle whose
+  // plane the shape reaches (within the contact distance) can be in contact.
+  struct Checker final : detail::LeafVisitor {
+    Checker(const ShapeDesc& shape_, const Pose& pose_, const Options& options_, Scratch::Impl& sc_, double cd_)
+        : shape(shape_), pose(pose_), options(options_), sc(sc_), cd(cd_) {}
+    const ShapeDesc& shape;
+    const Pose& pose;
+    const Options& options;
+    Scratch::Impl& sc;
+    double cd;
+    Status status;
+    bool visit(const CandidateTriangle& c) override {
+      const Vec3 n = normalizedOr((c.vertices[1] - c.vertices[0]).cross(c.vertices[2] - c.vertices[0]), Vec3::Zero());
+      if (n.isZero() || n.dot(c.vertices[0] - detail::supportPoint(shape, pose, -n)) < -cd) return false;
+      status = detail::collideCandidates(shape, pose, &c, 1, options.settings, sc.query, sc.contacts);
+      return !status || !sc.contacts.empty();
+    }
+  };
+  Checker checker(shape, shape_in_model, options, sc, cd);
+  if (checking) {
+    // The shape, pose and settings are checked even with no triangle near.
+    s = detail::collideCandidates(shape, shape_in_model, nullptr, 0, options.settings, sc.query, sc.contacts);
+    if (!s) return s;
+  }
+
   if (compact) {
     // The compact copy of the hierarchy: the core's own midphase (which also
     // sets the keys), on the query volume's bounds.
     const MeshInstance instance{compact, Pose::identity()};
     s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
+    if (!s) return s;
+    if (checking)
+      for (const CandidateTriangle& c : sc.candidates)
+        if (checker.visit(c)) break;
   } else {
-    s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates);
-  }
-  if (!s) return s;
-  const std::size_t room = request.num_max_contacts - have;
-  rep.candidates = sc.candidates.size();
-  if (!request.enable_contact && room == 1 && options.settings.trace == nullptr) {
-    // Collision checking (a boolean request wanting one contact): stop at
-    // the first triangle in contact. One candidate at a time gives a contact
-    // exactly when the whole query would give some (the filter never voids
-    // the first patch it processes), so the answer is the same.
-    s = detail::collideCandidates(shape, shape_in_model, nullptr, 0, options.settings, sc.query, sc.contacts);
-    if (!s) return s;  // the shape, pose and settings are checked even with no triangle near
-    for (const CandidateTriangle& c : sc.candidates) {
-      s = detail::collideCandidates(shape, shape_in_model, &c, 1, options.settings, sc.query, sc.contacts);
-      if (!s) return s;
-      if (!sc.contacts.empty()) break;
-    }
-  } else {
-    if (!keyed) {
+    s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
+    if (!s) return s;
+    if (!checking) {
       s = assignPositionKeys(sc.candidates.data(), sc.candidates.size(), sc.query);
       if (!s) return s;
     }
+  }
+  if (checking) {
+    if (!checker.status) return checker.status;
+  } else {
     s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), options.settings,
                                   sc.query, sc.contacts);
     if (!s) return s;
   }
+  rep.candidates = sc.candidates.size();
   rep.contacts = sc.contacts.size();
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     Contact through;

@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <memory>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace meshcontact::fcl::detail {
@@ -170,8 +171,16 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 /// mesh index `mesh_index`, keys unset. Degenerate triangles are skipped
 /// (as the core's midphase does: they have no normal). Errors:
 /// kIndexOutOfRange.
+/// Called on each candidate as the walk finds it; returning true stops the
+/// walk (collision checking stops at the first triangle in contact).
+class LeafVisitor {
+ public:
+  virtual ~LeafVisitor() = default;
+  virtual bool visit(const CandidateTriangle& candidate) = 0;
+};
+
 Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
-                   std::vector<int>& stack, std::vector<CandidateTriangle>& out);
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor = nullptr);
 
 // ---------------------------------------------------------------------------
 // Poses and conversions.

@@ -91,7 +91,7 @@ bool boundsOverlap(const ::fcl::kIOSd& b, const QueryVolume& q) { return boundsO
 
 template <class BV>
 Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pose& to_query, std::uint32_t mesh_index,
-                   std::vector<int>& stack, std::vector<CandidateTriangle>& out) {
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor) {
   const bool identity = to_query.isIdentity();
   stack.clear();
   stack.push_back(0);
@@ -132,6 +132,7 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     c.mesh = mesh_index;
     c.triangle = static_cast<std::uint32_t>(t);
     out.push_back(c);
+    if (visitor && visitor->visit(out.back())) break;
   }
   return Status::ok();
 }
@@ -152,16 +153,16 @@ bool describeMesh(const ::fcl::CollisionGeometryd* g, MeshDesc& out) {
 }
 
 Status checkModel(const MeshDesc& mesh, const char* what) {
+  // Messages are built only on an error: no allocation on the query path.
   return withModel(mesh, [what](const auto& m) -> Status {
-    const std::string name(what);
     if (m.build_state != ::fcl::BVH_BUILD_STATE_PROCESSED && m.build_state != ::fcl::BVH_BUILD_STATE_UPDATED)
       return {ErrorCode::kMeshNotBuilt,
-              name + ": the BVHModel is not finished (build state " + std::to_string(m.build_state) +
+              std::string(what) + ": the BVHModel is not finished (build state " + std::to_string(m.build_state) +
                   "; call endModel() after beginModel()/addSubModel())"};
     if (m.getModelType() != ::fcl::BVH_MODEL_TRIANGLES)
-      return {ErrorCode::kMeshNotBuilt, name + ": the BVHModel is not a triangle model (a point cloud?)"};
+      return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel is not a triangle model (a point cloud?)"};
     if (m.num_tris <= 0 || m.getNumBVs() <= 0 || m.vertices == nullptr || m.tri_indices == nullptr)
-      return {ErrorCode::kMeshNotBuilt, name + ": the BVHModel has no triangles"};
+      return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel has no triangles"};
     return Status::ok();
   });
 }
@@ -193,9 +194,9 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 }
 
 Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
-                   std::vector<int>& stack, std::vector<CandidateTriangle>& out) {
+                   std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor) {
   return withModel(mesh,
-                   [&](const auto& m) { return gatherTyped(m, volume, to_query, mesh_index, stack, out); });
+                   [&](const auto& m) { return gatherTyped(m, volume, to_query, mesh_index, stack, out, visitor); });
 }
 
 }  // namespace meshcontact::fcl::detail
