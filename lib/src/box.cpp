@@ -440,19 +440,29 @@ struct BoxNarrowphase {
   double scale;        // |e|: the box's size, for tolerances
   double flat_;        // round-off tolerance on lengths (see kFlat)
 
+  // How far apart a pair may be and still be in contact: the contact
+  // distance plus round-off. A box lying exactly on a tessellated plane is
+  // 0 +- 1e-17 from each triangle once the triangle is moved to the box's
+  // frame; without the round-off term, which triangles touch (and so where
+  // the manifold's points are) was decided by that noise: a box set down
+  // exactly on a floor got its points from one triangle in one corner and
+  // tipped over.
+  double reach() const { return contact_distance + flat_; }
+
   // Keeps the points within the contact distance, at most 4 of them, and
   // writes the patch in the query frame. False when none is left.
   bool finish(Polygon& poly, const Vec3& N, detail::Patch& patch) const {
     int kept = 0;
     for (int c = 0; c < poly.count; ++c)
-      if (poly.depth[c] >= -contact_distance) {
+      if (poly.depth[c] >= -reach()) {
         poly.pts[kept] = poly.pts[c];
-        poly.depth[kept] = poly.depth[c];
+        // Within round-off of the contact distance: at it (depth >= -contact distance holds).
+        poly.depth[kept] = std::max(poly.depth[c], -contact_distance);
         ++kept;
       }
     if (kept == 0) return false;
     int keep[4];
-    patch.count = detail::selectManifoldPoints(poly.pts, poly.depth, kept, N, scale, keep);
+    patch.count = selectPatchPoints(poly, kept, N, keep);
     double deepest = -kInf;
     for (int c = 0; c < patch.count; ++c) {
       patch.points[c] = pose.apply(poly.pts[keep[c]]);
@@ -464,6 +474,51 @@ struct BoxNarrowphase {
     return true;
   }
 
+  // At most 4 of the patch's `count` points. A patch is one triangle's piece
+  // of a manifold that reduceManifolds reduces again over all the
+  // triangles, and on a tessellated plane the union of the incident face's
+  // pieces is the face: its extreme points are the box's corners, never the
+  // clip points where a triangle's edge crosses the face. A per-patch choice
+  // made on the patch alone (largest area) can trade a corner for a nearby
+  // clip point, which the final reduction can no longer recover: the box
+  // then stands on a polygon that shrinks and grows as it slides across
+  // internal edges, and rocks. So: the deepest point (the patch's depth),
+  // then the box's corners in the patch, then selectManifoldPoints' choice.
+  int selectPatchPoints(const Polygon& poly, int count, const Vec3& N, int keep[4]) const {
+    if (count <= 4) {
+      for (int c = 0; c < count; ++c) keep[c] = c;
+      return count;
+    }
+    int chosen[4];
+    const int natural = detail::selectManifoldPoints(poly.pts, poly.depth, count, N, scale, chosen);
+    int n = 0;
+    const auto add = [&](int c) {
+      for (int k = 0; k < n; ++k)
+        if (keep[k] == c) return;
+      if (n < 4) keep[n++] = c;
+    };
+    add(chosen[0]);  // the deepest
+    // Corners: the incident face's vertices survive clipping bit for bit.
+    int corners[9], corner_count = 0;
+    for (int c = 0; c < count; ++c)
+      if (c != chosen[0] && (poly.pts[c].cwiseAbs() - e).cwiseAbs().maxCoeff() == 0.0) corners[corner_count++] = c;
+    if (corner_count <= 3) {
+      for (int k = 0; k < corner_count; ++k) add(corners[k]);
+    } else {  // a triangle under the whole face and a deepest point off it: the widest 3 corners
+      Vec3 pts[9];
+      double depths[9];
+      pts[0] = poly.pts[chosen[0]];
+      depths[0] = kInf;
+      for (int k = 0; k < corner_count; ++k) pts[k + 1] = poly.pts[corners[k]], depths[k + 1] = 0.0;
+      int sub[4];
+      const int m = detail::selectManifoldPoints(pts, depths, corner_count + 1, N, scale, sub);
+      for (int k = 0; k < m; ++k)
+        if (sub[k] > 0) add(corners[sub[k] - 1]);
+    }
+    for (int k = 1; k < natural; ++k) add(chosen[k]);
+    return n;
+  }
+
   detail::PatchOutcome operator()(const CandidateTriangle& tri, detail::Patch& patch) const {
     using detail::PatchOutcome;
     Vec3 v[3];
@@ -472,7 +527,7 @@ struct BoxNarrowphase {
     // candidates (their boxes overlap the box's query-frame bounds only).
     Vec3 lo = v[0].cwiseMin(v[1]).cwiseMin(v[2]), hi = v[0].cwiseMax(v[1]).cwiseMax(v[2]);
     const double face_gap = std::max((lo - e).maxCoeff(), (-hi - e).maxCoeff());
-    if (face_gap > contact_distance) {
+    if (face_gap > reach()) {
       patch.distance = face_gap;
       return PatchOutcome::kBeyondContactDistance;
     }
@@ -496,7 +551,7 @@ struct BoxNarrowphase {
     }
     const double thickness = e.dot(n.cwiseAbs());
     double separation = std::max(std::abs(centre_height) - thickness, face_gap);  // SAT along n and u_i
-    if (separation > contact_distance) {
+    if (separation > reach()) {
       patch.distance = separation;
       return PatchOutcome::kBeyondContactDistance;
     }
@@ -510,7 +565,7 @@ struct BoxNarrowphase {
       if (gap >= 0.0) {
         if (a.length == 0.0) a.length = std::sqrt(a.L.squaredNorm());
         separation = std::max(separation, gap / a.length);
-        if (separation > contact_distance) return false;
+        if (separation > reach()) return false;
       }
       ++axis_count;
       return true;
@@ -557,7 +612,7 @@ struct BoxNarrowphase {
     if (separation >= 0.0) {
       const ClosestPair pair = closestPair(v, n, m, e, tie);
       patch.distance = pair.d;
-      if (pair.d > contact_distance) return PatchOutcome::kBeyondContactDistance;
+      if (pair.d > reach()) return PatchOutcome::kBeyondContactDistance;
       patch.feature = pair.feature;
       Vec3 N = n;
       if (pair.feature.type == FeatureType::kFace) {
@@ -565,7 +620,8 @@ struct BoxNarrowphase {
         poly.pts[poly.count] = pair.b;  // may lie off the incident face
         poly.depth[poly.count++] = -pair.d;
       } else {
-        N = normalizedOr(pair.b - pair.t, n);
+        // Touching to round-off: b - t is noise, take the plane's normal as for b == t.
+        N = pair.d > flat ? normalizedOr(pair.b - pair.t, n) : n;
         int i = 0;
         for (int k = 1; k < 3; ++k)
           if (std::abs(N[k]) > std::abs(N[i])) i = k;

@@ -3,6 +3,10 @@
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/AABB.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -27,9 +31,11 @@ float floatAbove(double x) {
   return f;
 }
 
-bool overlaps(const BvhNode& n, const float lo[3], const float hi[3]) {
-  return !(n.lo[0] > hi[0] || n.hi[0] < lo[0] || n.lo[1] > hi[1] || n.hi[1] < lo[1] || n.lo[2] > hi[2] ||
-           n.hi[2] < lo[2]);
+// Branch-free (& not &&): the six compares of a box test are not predictable
+// from one node to the next, one branch per compare costs mispredictions.
+inline bool overlaps(const BvhNode& n, const float lo[3], const float hi[3]) {
+  return (n.lo[0] <= hi[0]) & (n.hi[0] >= lo[0]) & (n.lo[1] <= hi[1]) & (n.hi[1] >= lo[1]) & (n.lo[2] <= hi[2]) &
+         (n.hi[2] >= lo[2]);
 }
 
 // Position bits with -0 folded onto +0, so that equal coordinates compare equal.
@@ -222,31 +228,52 @@ void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uin
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
   const BvhNode* nodes = nodes_.data();
   if (!overlaps(nodes[0], qlo, qhi)) return;
+  if (nodes[0].first_child < 0) {
+    out.push_back(nodes[0].triangle);
+    return;
+  }
   // A depth-first walk keeps at most one pending sibling per level.
-  if (stack.capacity() < static_cast<std::size_t>(bvh_depth_) + 1) stack.reserve(bvh_depth_ + 1);
-  stack.clear();
+  if (stack.size() < static_cast<std::size_t>(bvh_depth_) + 1) stack.resize(bvh_depth_ + 1);
+  std::int32_t* const bottom = stack.data();
+  std::int32_t* top = bottom;
+#if defined(__SSE2__)
+  const __m128 vlo = _mm_setr_ps(qlo[0], qlo[1], qlo[2], 0.0f);
+  const __m128 vhi = _mm_setr_ps(qhi[0], qhi[1], qhi[2], 0.0f);
+  // lo <= qhi and hi >= qlo on x, y, z (lane 3 holds the index fields: ignored).
+  auto hit = [&](const BvhNode& n) {
+    const float* f = reinterpret_cast<const float*>(&n);
+    const __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(f), vhi), _mm_cmpge_ps(_mm_loadu_ps(f + 4), vlo));
+    return (_mm_movemask_ps(ok) & 7) == 7;
+  };
+#else
+  auto hit = [&](const BvhNode& n) { return overlaps(n, qlo, qhi); };
+#endif
+  // Inner nodes only are visited; leaf children are reported when tested.
   std::int32_t current = 0;
   for (;;) {
-    const BvhNode& node = nodes[current];
-    if (node.first_child < 0) {
-      out.push_back(node.triangle);
-    } else {
-      const std::int32_t left = node.first_child;
-      const bool hit_left = overlaps(nodes[left], qlo, qhi);
-      const bool hit_right = overlaps(nodes[left + 1], qlo, qhi);
-      if (hit_left) {
-        if (hit_right) stack.push_back(left + 1);
-        current = left;
-        continue;
-      }
-      if (hit_right) {
-        current = left + 1;
-        continue;
-      }
+    const std::int32_t left = nodes[current].first_child;
+    const BvhNode& l = nodes[left];
+    const BvhNode& r = nodes[left + 1];
+    bool go_left = hit(l), go_right = hit(r);
+    if (go_left && l.first_child < 0) {
+      out.push_back(l.triangle);
+      go_left = false;
     }
-    if (stack.empty()) break;
-    current = stack.back();
-    stack.pop_back();
+    if (go_right && r.first_child < 0) {
+      out.push_back(r.triangle);
+      go_right = false;
+    }
+    if (go_left) {
+      if (go_right) *top++ = left + 1;
+      current = left;
+      continue;
+    }
+    if (go_right) {
+      current = left + 1;
+      continue;
+    }
+    if (top == bottom) break;
+    current = *--top;
   }
 }
 

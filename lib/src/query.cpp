@@ -79,8 +79,25 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
     }
     const std::size_t base = out.size();
     out.resize(base + sc.hits.size());
+    CandidateTriangle* dst = out.data() + base;
+    const std::uint64_t mesh_bits = static_cast<std::uint64_t>(m) << 32;
+    // One loop per case, so the per-vertex work has no branch.
+    if (identity && mode == KeyMode::kVertexIndex) {
+      for (std::size_t h = 0; h < sc.hits.size(); ++h) {
+        CandidateTriangle& c = dst[h];
+        const std::uint32_t t = sc.hits[h];
+        const std::uint32_t* tri = mesh.triangle(t);
+        c.mesh = static_cast<std::uint32_t>(m);
+        c.triangle = t;
+        for (int k = 0; k < 3; ++k) {
+          c.vertices[k] = mesh.vertex(tri[k]);
+          c.keys[k] = mesh_bits | tri[k];
+        }
+      }
+      continue;
+    }
     for (std::size_t h = 0; h < sc.hits.size(); ++h) {
-      CandidateTriangle& c = out[base + h];
+      CandidateTriangle& c = dst[h];
       const std::uint32_t t = sc.hits[h];
       const std::uint32_t* tri = mesh.triangle(t);
       c.mesh = static_cast<std::uint32_t>(m);
@@ -92,7 +109,7 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
           const auto next = static_cast<std::uint32_t>(sc.positions.size());
           c.keys[k] = sc.positions.insert(positionKey(c.vertices[k]), next);
         } else {
-          c.keys[k] = (static_cast<std::uint64_t>(m) << 32) | tri[k];
+          c.keys[k] = mesh_bits | tri[k];
         }
       }
     }
@@ -121,6 +138,25 @@ struct SphereNarrowphase {
 
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     const Vec3& a = t.vertices[0];
+    {
+      // Cheap reject (Ericson 5.2.5, sphere vs AABB): the midphase's box test
+      // passes triangles whose box only overlaps a corner of the sphere's box
+      // (half the candidates on a flat floor). Squared distance from the
+      // centre to the triangle's box, against the inflated radius.
+      const Vec3& b = t.vertices[1];
+      const Vec3& c = t.vertices[2];
+      double d2 = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const double lo = std::min(a[k], std::min(b[k], c[k]));
+        const double hi = std::max(a[k], std::max(b[k], c[k]));
+        const double e = std::max(0.0, std::max(lo - center[k], center[k] - hi));
+        d2 += e * e;
+      }
+      if (d2 > inflated * inflated) {
+        p.distance = std::sqrt(d2);  // a lower bound of the distance (trace only)
+        return detail::PatchOutcome::kBeyondContactDistance;
+      }
+    }
     if (isDegenerateTriangle(a, t.vertices[1], t.vertices[2])) {  // same test as at build time
       p.distance = (center - a).norm();
       return detail::PatchOutcome::kDegenerate;

@@ -27,6 +27,7 @@
 #include "stamped_set.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -55,24 +56,66 @@ enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDi
 
 class VoidedSet {
  public:
+  // Up to kLinear voided triangles are kept in a flat array and scanned: a
+  // query typically voids 2-4 triangles, where hashing 6 keys per triangle
+  // costs more than comparing a few. Past that the hash sets take over.
+  static constexpr std::size_t kLinear = 16;
+
   void reset(std::size_t triangles) {
-    vertices_.reset(3 * triangles);
-    edges_.reset(3 * triangles);
+    linear_count_ = 0;
+    hashed_ = false;
+    expected_ = triangles;
   }
   void voidTriangle(const std::uint64_t k[3]) {
+    if (!hashed_) {
+      if (linear_count_ < kLinear) {
+        tris_[linear_count_++] = {k[0], k[1], k[2]};
+        return;
+      }
+      vertices_.reset(3 * expected_);
+      edges_.reset(3 * expected_);
+      for (std::size_t i = 0; i < linear_count_; ++i) hashTriangle(tris_[i].data());
+      hashed_ = true;
+    }
+    hashTriangle(k);
+  }
+  bool isVoided(Feature f, const std::uint64_t k[3]) const {
+    if (f.type == FeatureType::kFace) return false;
+    if (hashed_) {
+      if (f.type == FeatureType::kEdge) return edges_.contains(edgeKey(k[f.index], k[(f.index + 1) % 3]));
+      return vertices_.contains(k[f.index]);
+    }
+    const std::uint64_t a = k[f.index];
+    if (f.type == FeatureType::kVertex) {
+      for (std::size_t i = 0; i < linear_count_; ++i) {
+        const auto& t = tris_[i];
+        if (t[0] == a || t[1] == a || t[2] == a) return true;
+      }
+      return false;
+    }
+    const std::uint64_t b = k[(f.index + 1) % 3];
+    for (std::size_t i = 0; i < linear_count_; ++i) {
+      const auto& t = tris_[i];
+      // Two distinct keys of one triangle always form one of its edges.
+      const bool has_a = t[0] == a || t[1] == a || t[2] == a;
+      const bool has_b = t[0] == b || t[1] == b || t[2] == b;
+      if (has_a && has_b) return true;
+    }
+    return false;
+  }
+
+ private:
+  void hashTriangle(const std::uint64_t k[3]) {
     for (int i = 0; i < 3; ++i) {
       vertices_.insert(k[i], Empty{});
       edges_.insert(edgeKey(k[i], k[(i + 1) % 3]), Empty{});
     }
   }
-  bool isVoided(Feature f, const std::uint64_t k[3]) const {
-    if (f.type == FeatureType::kEdge) return edges_.contains(edgeKey(k[f.index], k[(f.index + 1) % 3]));
-    if (f.type == FeatureType::kVertex) return vertices_.contains(k[f.index]);
-    return false;
-  }
-
- private:
   static EdgeKey edgeKey(std::uint64_t a, std::uint64_t b) { return a < b ? EdgeKey{a, b} : EdgeKey{b, a}; }
+  std::array<std::array<std::uint64_t, 3>, kLinear> tris_;
+  std::size_t linear_count_ = 0;
+  bool hashed_ = false;
+  std::size_t expected_ = 0;
   StampedMap<std::uint64_t, Empty, U64Hash> vertices_;
   StampedMap<EdgeKey, Empty, EdgeHash> edges_;
 };

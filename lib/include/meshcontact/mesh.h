@@ -23,6 +23,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <new>
 #include <vector>
 
 namespace meshcontact {
@@ -49,6 +50,27 @@ struct BvhNode {
   std::uint32_t triangle;
 };
 static_assert(sizeof(BvhNode) == 32, "a node is half a cache line");
+
+/// Node storage whose sibling pairs (first_child, first_child + 1), which
+/// FCL always puts at odd indices, share one 64-byte cache line: the
+/// buffer starts 32 bytes past a 64-byte boundary.
+template <class T>
+struct PairAlignedAllocator {
+  using value_type = T;
+  PairAlignedAllocator() = default;
+  template <class U>
+  PairAlignedAllocator(const PairAlignedAllocator<U>&) {}
+  T* allocate(std::size_t n) {
+    char* base = static_cast<char*>(::operator new(n * sizeof(T) + 64, std::align_val_t(64)));
+    return reinterpret_cast<T*>(base + 32);
+  }
+  void deallocate(T* p, std::size_t) { ::operator delete(reinterpret_cast<char*>(p) - 32, std::align_val_t(64)); }
+  template <class U>
+  bool operator==(const PairAlignedAllocator<U>&) const { return true; }
+  template <class U>
+  bool operator!=(const PairAlignedAllocator<U>&) const { return false; }
+};
+using BvhNodes = std::vector<BvhNode, PairAlignedAllocator<BvhNode>>;
 
 class TriangleMesh {
  public:
@@ -88,7 +110,7 @@ class TriangleMesh {
   }
   const std::uint32_t* triangle(std::uint32_t t) const { return indices_ + 3 * static_cast<std::size_t>(t); }
 
-  const std::vector<BvhNode>& bvh() const { return nodes_; }
+  const BvhNodes& bvh() const { return nodes_; }
   int bvhDepth() const { return bvh_depth_; }
   /// Bytes this mesh allocated itself (BVH, plus the arrays when copied).
   std::size_t memoryBytes() const;
@@ -112,7 +134,7 @@ class TriangleMesh {
   int bvh_depth_ = 0;
   std::vector<double> owned_vertices_;
   std::vector<std::uint32_t> owned_indices_;
-  std::vector<BvhNode> nodes_;
+  BvhNodes nodes_;
 };
 
 /// True when the triangle's area is zero relative to its size: |(b-a)x(c-a)|
