@@ -52,15 +52,21 @@ std::array<std::uint64_t, 3> positionBits(const double* p) {
 
 bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c) {
   // Edges scaled to a largest component of 1: the test is then the same at
-  // every scale, with no underflow of the squared lengths.
+  // every scale, with no underflow of the squared lengths. It runs on every
+  // candidate of every query, so: one reciprocal instead of six divisions
+  // (unless the reciprocal of a denormal scale overflows), squares instead
+  // of a square root.
   const double scale = std::max((b - a).cwiseAbs().maxCoeff(), (c - a).cwiseAbs().maxCoeff());
   if (!(scale > 0.0) || !std::isfinite(scale)) return true;
-  const Vec3 ab = (b - a) / scale;
-  const Vec3 ac = (c - a) / scale;
+  const double inv = 1.0 / scale;
+  const bool finite_inv = std::isfinite(inv);
+  const Vec3 ab = finite_inv ? Vec3((b - a) * inv) : Vec3((b - a) / scale);
+  const Vec3 ac = finite_inv ? Vec3((c - a) * inv) : Vec3((c - a) / scale);
   const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (ac - ab).squaredNorm()});
-  const double twice_area = ab.cross(ac).norm();
-  // !(>) so that NaN counts as degenerate.
-  return !(twice_area > 1e-12 * longest2);
+  const double twice_area2 = ab.cross(ac).squaredNorm();
+  // |ab x ac| > 1e-12 * longest^2, squared; longest2 >= 1 here, so the
+  // right side cannot underflow. !(>) so that NaN counts as degenerate.
+  return !(twice_area2 > 1e-24 * longest2 * longest2);
 }
 
 TriangleMesh::TriangleMesh(TriangleMesh&& other) noexcept { *this = std::move(other); }
@@ -221,19 +227,46 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
   return Status::ok();
 }
 
-void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
-                            std::vector<std::int32_t>& stack) const {
-  if (nodes_.empty()) return;
+namespace {
+
+// Every leaf passes: the plain box query.
+struct AnyLeaf {
+  bool operator()(const BvhNode&) const { return true; }
+};
+
+// A leaf passes when its box is within the radius of the centre (Ericson
+// 5.2.5, squared distance point-AABB): on a floor, about half the leaves
+// whose boxes overlap the sphere's bounding box only overlap its corners.
+// In double from the outward-rounded float bounds, so never a false reject.
+struct LeafNearSphere {
+  Vec3 center;
+  double radius2;
+  bool operator()(const BvhNode& n) const {
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double below = static_cast<double>(n.lo[k]) - center[k];
+      const double above = center[k] - static_cast<double>(n.hi[k]);
+      const double e = std::max(0.0, std::max(below, above));
+      d2 += e * e;
+    }
+    return d2 <= radius2;
+  }
+};
+
+// Depth-first walk over the inner nodes; a leaf child is reported when its
+// box overlaps the query box and `leaf_ok` accepts it.
+template <class LeafTest>
+void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
+          std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
   const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
-  const BvhNode* nodes = nodes_.data();
   if (!overlaps(nodes[0], qlo, qhi)) return;
   if (nodes[0].first_child < 0) {
-    out.push_back(nodes[0].triangle);
+    if (leaf_ok(nodes[0])) out.push_back(nodes[0].triangle);
     return;
   }
   // A depth-first walk keeps at most one pending sibling per level.
-  if (stack.size() < static_cast<std::size_t>(bvh_depth_) + 1) stack.resize(bvh_depth_ + 1);
+  if (stack.size() < static_cast<std::size_t>(depth) + 1) stack.resize(depth + 1);
   std::int32_t* const bottom = stack.data();
   std::int32_t* top = bottom;
 #if defined(__SSE2__)
@@ -256,11 +289,11 @@ void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uin
     const BvhNode& r = nodes[left + 1];
     bool go_left = hit(l), go_right = hit(r);
     if (go_left && l.first_child < 0) {
-      out.push_back(l.triangle);
+      if (leaf_ok(l)) out.push_back(l.triangle);
       go_left = false;
     }
     if (go_right && r.first_child < 0) {
-      out.push_back(r.triangle);
+      if (leaf_ok(r)) out.push_back(r.triangle);
       go_right = false;
     }
     if (go_left) {
@@ -275,6 +308,22 @@ void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uin
     if (top == bottom) break;
     current = *--top;
   }
+}
+
+}  // namespace
+
+void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
+                            std::vector<std::int32_t>& stack) const {
+  if (nodes_.empty()) return;
+  walk(nodes_.data(), bvh_depth_, lo, hi, AnyLeaf{}, out, stack);
+}
+
+void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
+                               std::vector<std::int32_t>& stack) const {
+  if (nodes_.empty()) return;
+  const Vec3 extent = Vec3::Constant(radius);
+  walk(nodes_.data(), bvh_depth_, center - extent, center + extent, LeafNearSphere{center, radius * radius}, out,
+       stack);
 }
 
 }  // namespace meshcontact

@@ -37,8 +37,13 @@ detail::PositionKey positionKey(const Vec3& p) {
 
 }  // namespace
 
-Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
-                        KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
+namespace {
+
+// gatherCandidates, optionally pruned by a bounding sphere of the shape
+// (`bound`, query frame; the box [lo, hi] must contain it): leaves whose box
+// is farther than its radius are dropped (TriangleMesh::querySphere).
+Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi, const Sphere* bound,
+              KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
   out.clear();
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
@@ -69,7 +74,10 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
       local_hi = c + h;
     }
     sc.hits.clear();
-    mesh.queryBox(local_lo, local_hi, sc.hits, sc.stack);
+    if (bound)
+      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits, sc.stack);
+    else
+      mesh.queryBox(local_lo, local_hi, sc.hits, sc.stack);
     if (sc.hits.empty()) continue;
     if (mode == KeyMode::kVertexPosition && first_position) {
       // Upper bound on distinct positions of this query: 3 per triangle of
@@ -77,16 +85,16 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
       sc.positions.reset(3 * sc.hits.size());
       first_position = false;
     }
-    const std::size_t base = out.size();
-    out.resize(base + sc.hits.size());
-    CandidateTriangle* dst = out.data() + base;
+    // Appended one by one after a reserve: resize() would zero every
+    // candidate first (value-initialisation), only for all of it to be
+    // overwritten here.
+    out.reserve(out.size() + sc.hits.size());
     const std::uint64_t mesh_bits = static_cast<std::uint64_t>(m) << 32;
     // One loop per case, so the per-vertex work has no branch.
     if (identity && mode == KeyMode::kVertexIndex) {
-      for (std::size_t h = 0; h < sc.hits.size(); ++h) {
-        CandidateTriangle& c = dst[h];
-        const std::uint32_t t = sc.hits[h];
+      for (const std::uint32_t t : sc.hits) {
         const std::uint32_t* tri = mesh.triangle(t);
+        CandidateTriangle& c = out.emplace_back();
         c.mesh = static_cast<std::uint32_t>(m);
         c.triangle = t;
         for (int k = 0; k < 3; ++k) {
@@ -96,10 +104,9 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
       }
       continue;
     }
-    for (std::size_t h = 0; h < sc.hits.size(); ++h) {
-      CandidateTriangle& c = dst[h];
-      const std::uint32_t t = sc.hits[h];
+    for (const std::uint32_t t : sc.hits) {
       const std::uint32_t* tri = mesh.triangle(t);
+      CandidateTriangle& c = out.emplace_back();
       c.mesh = static_cast<std::uint32_t>(m);
       c.triangle = t;
       for (int k = 0; k < 3; ++k) {
@@ -115,6 +122,13 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
     }
   }
   return Status::ok();
+}
+
+}  // namespace
+
+Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                        KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
+  return gather(instances, count, lo, hi, nullptr, key_mode, scratch, out);
 }
 
 namespace {
@@ -234,8 +248,9 @@ Status collideSphere(const MeshInstance* instances, std::size_t count, const Sph
   const double reach = sphere.radius + settings.contact_distance;
   const Vec3 extent = Vec3::Constant(reach);
   QueryScratch::Impl& sc = scratch.impl();
-  s = gatherCandidates(instances, count, sphere.center - extent, sphere.center + extent, settings.key_mode, scratch,
-                       sc.candidates);
+  const Sphere bound{sphere.center, reach};
+  s = gather(instances, count, sphere.center - extent, sphere.center + extent, &bound, settings.key_mode, scratch,
+             sc.candidates);
   if (!s) return s;
   return collideSphereCandidates(sphere, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
 }

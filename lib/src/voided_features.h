@@ -174,8 +174,12 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   std::vector<TraceEntry>* trace = settings.trace;
   if (trace) trace->clear();
   contacts.clear();
-  s.patches.resize(count);
-  s.patch_candidate.resize(count);
+  // Grow only: shrinking and re-growing would value-initialise the patches
+  // (hundreds of bytes each) on every query whose count exceeds the last.
+  if (s.patches.size() < count) {
+    s.patches.resize(count);
+    s.patch_candidate.resize(count);
+  }
   s.delayed.clear();
   s.accepted.clear();
   s.voided.reset(count);

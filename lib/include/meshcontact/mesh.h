@@ -120,6 +120,13 @@ class TriangleMesh {
   /// Degenerate triangles are never reported.
   void queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                 std::vector<std::int32_t>& stack) const;
+  /// Triangles whose bounding box is within `radius` of `center` (mesh
+  /// frame): queryBox on the sphere's bounding box, each leaf's box also
+  /// tested against the sphere, so a triangle whose box only overlaps a
+  /// corner of the sphere's box is not reported (it cannot touch the
+  /// sphere). Same order and guarantees as queryBox.
+  void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
+                   std::vector<std::int32_t>& stack) const;
 
  private:
   void reset();
