@@ -7,6 +7,12 @@
 // | max contacts | mean contacts |") and checked.
 #include "ode_sim.h"
 
+#include "../test_support.h"
+
+#include <meshcontact/shapes.h>
+
+#include <Eigen/Geometry>
+
 namespace meshcontact::odetest {
 namespace {
 
@@ -26,42 +32,16 @@ struct Ground {
 };
 const Ground kGrounds[] = {{"floor", &floorMesh}, {"tiles", &tiles}};
 
-// A sphere of radius 0.25 rolling without slipping at 5 m/s (mu = 1).
+constexpr RunLength kLength{kSettleSteps, kRunSteps};
+
 Peaks rollSphere(Mode mode, const std::vector<scenes::SceneMesh>& ground, bool group_pieces = true) {
-  Session session;
-  WorldParams params;
-  params.group_pieces = group_pieces;
-  World world(mode, ground, params);
-  const double r = 0.25;
-  dBodyID b = world.addSphere(r, Vec3(1.0, 2.1, r));
-  for (int i = 0; i < kSettleSteps; ++i) world.step();
-  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
-  return track(world, b, kRunSteps);
+  return odetest::rollSphere(mode, ground, kLength, group_pieces);
 }
-
-// A 0.5 m cube sliding at 3 m/s with mu = 0.2 (it stops after ~1.5 s).
-// `rest` receives the contact counts while at rest before the launch.
 Peaks slideBox(Mode mode, const std::vector<scenes::SceneMesh>& ground, Peaks* rest = nullptr) {
-  Session session;
-  WorldParams params;
-  params.mu = 0.2;
-  World world(mode, ground, params);
-  dBodyID b = world.addBox(Vec3(0.5, 0.5, 0.5), Vec3(1.0, 2.1, 0.25));
-  const Peaks at_rest = track(world, b, kSettleSteps);
-  if (rest) *rest = at_rest;
-  setVelocity(b, Vec3(3, 0, 0), Vec3::Zero());
-  return track(world, b, kRunSteps);
+  return odetest::slideBox(mode, ground, kLength, rest);
 }
-
-// A capsule (radius 0.2, segment 0.5) lying along y, rolling along x at 5 m/s.
 Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground) {
-  Session session;
-  World world(mode, ground);
-  const double r = 0.2;
-  dBodyID b = world.addCapsule(r, 0.5, Vec3(1.0, 2.1, r), axisAlongY());
-  for (int i = 0; i < kSettleSteps; ++i) world.step();
-  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
-  return track(world, b, kRunSteps);
+  return odetest::rollCapsule(mode, ground, kLength);
 }
 
 const Mode kModes[] = {Mode::kPlane, Mode::kNative, Mode::kOverride, Mode::kTriangleFilter};
@@ -78,6 +58,12 @@ TEST(OdeRolling, SphereRollsLikeOnAPlane) {
     EXPECT_TRUE(mc.finite);
     EXPECT_LE(mc.up_velocity, 1e-3);
     EXPECT_LE(mc.height_deviation, 1e-4);
+    // The lighter mode: ODE's own sphere collider, fed only the triangles
+    // the filter keeps, gets no edge contact either.
+    const Peaks& filtered = p[3];
+    EXPECT_TRUE(filtered.finite);
+    EXPECT_LE(filtered.up_velocity, 1e-3) << "triangle filter: " << describe(filtered);
+    EXPECT_LE(filtered.height_deviation, 1e-4) << "triangle filter: " << describe(filtered);
     // The scene provokes ODE's ghost contacts: its native collider hops here.
     EXPECT_GT(p[1].up_velocity, 1e-2);
   }
@@ -92,6 +78,20 @@ TEST(OdeRolling, UngroupedTilesHaveSeams) {
   EXPECT_GT(p.up_velocity, 1e-2);
 }
 
+// Issue 4's box bounds: peak angular velocity and peak upward velocity at
+// most 1.5x the analytic plane's, both floors; at most 4 contacts per step
+// at rest (the box is set down exactly touching the ground).
+//
+// What the upward-velocity bound measures: the override gives the box the
+// plane's contacts (OdeRolling.BoxContactsEqualThePlanes: same points and
+// depths to round-off at every step), so what is left between the two runs
+// is the ORDER in which the contacts reach dWorldQuickStep, whose SOR sweep
+// depends on it. The plane alone, its 4 contacts handed over in each of the
+// 24 orders, peaks between 8.9e-5 and 5.9e-4 m/s
+// (OdeRolling.PlaneBoxFiguresDependOnContactOrder). The bound holds here with
+// the adapter's order (by mesh and triangle); it is a property of this run,
+// not a margin: the same contacts sorted deepest first peak at 0.76x
+// (floor) and 1.8x (tiles) the plane's.
 TEST(OdeRolling, BoxSlidesLikeOnAPlane) {
   for (const Ground& g : kGrounds) {
     Peaks p[4], rest[4];
@@ -102,28 +102,190 @@ TEST(OdeRolling, BoxSlidesLikeOnAPlane) {
     }
     const Peaks& plane = p[0];
     const Peaks& mc = p[2];
-    SCOPED_TRACE(std::string("ground: ") + g.name + "; plane: " + describe(plane) + "; override: " + describe(mc));
+    SCOPED_TRACE(std::string("ground: ") + g.name + "; plane: " + describe(plane) + "; override: " + describe(mc) +
+                 "; override at rest: " + describe(rest[2]) + "; plane at rest: " + describe(rest[0]));
     EXPECT_TRUE(mc.finite);
     EXPECT_LE(mc.angular_velocity, 1.5 * plane.angular_velocity);
+    EXPECT_LE(mc.up_velocity, 1.5 * plane.up_velocity);
     EXPECT_LE(rest[2].max_contacts, 4);
+    // Set down exactly touching, the box stays put like the plane's: it used
+    // to get 3 contacts in one corner (round-off decided which triangles
+    // touched) and rocked at 0.165 rad/s.
+    EXPECT_LE(rest[2].angular_velocity, 1.5 * rest[0].angular_velocity);
     // The bounds discriminate: ODE's native collider misses them here.
     EXPECT_GT(p[1].up_velocity, 1.5 * plane.up_velocity);
     EXPECT_GT(rest[1].max_contacts, 4);
   }
 }
 
-// Issue 4's upward-velocity bound for the sliding box (<= 1.5x the analytic
-// plane's). NOT MET yet, so disabled rather than loosened: measured on the
-// tessellated floor 1.62e-4 m/s against the plane's 1.03e-4 (1.57x; the
-// issue's own plane figure is 2.2e-4), 1.53e-4 on the tiles. Native ODE:
-// 7.3e-4. Run with --gtest_also_run_disabled_tests.
-TEST(OdeRolling, DISABLED_BoxSlidingUpwardVelocityWithinPlaneBound) {
-  for (const Ground& g : kGrounds) {
-    Peaks rest;
-    const Peaks plane = slideBox(Mode::kPlane, g.make(), &rest);
-    const Peaks mc = slideBox(Mode::kOverride, g.make(), &rest);
-    EXPECT_LE(mc.up_velocity, 1.5 * plane.up_velocity) << g.name;
+// The core's box contacts on the tessellated floor, without ODE (what the
+// simulations above rely on): a box lying flat or nearly so, all 4 bottom
+// corners at or below the plane, gets 4 contacts with the plane's normal,
+// and they are its 4 corners with their depths, wherever the triangles'
+// edges cross its bottom face. Two ways this failed: set down exactly
+// touching, round-off (1e-17) decided which triangles touched and the
+// contacts were 3 points in one corner; and a triangle whose piece of the
+// bottom face had more than 4 vertices reduced it to 4 without the corner
+// it held, so the manifold lost that corner for a clip point up to 6 cm
+// inside. Exactly touching: every placement must give the corners. Sunk
+// (1e-5 .. 1e-3 m, tilted up to 1e-3 rad): one known case remains, counted
+// and bounded here, not hidden: a triangle holding a corner while it
+// overlaps the box sideways by less than half the depth takes a side face's
+// axis (box.cpp step 5), its patch becomes an edge contact that the filter
+// voids, and the manifold's point for that corner is a neighbour's clip
+// point (measured: 5 placements in 3,000, off by up to 1.05 mm). Fixing it would
+// give the box's step-5 patches a face part, as the capsule's have.
+TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
+  const scenes::SceneMesh floor = scenes::flatFloor(26, 8, kCell, kSeed);
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(floor.vertices, floor.indices).isOk());
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  scenes::Rng rng(11);
+  const Vec3 e(0.25, 0.25, 0.25);
+  const int n = testing::scaled(4000);
+  int failures = 0, sunk = 0, off_corner = 0;
+  double worst_off = 0.0;
+  for (int i = 0; i < n && failures < 5; ++i) {
+    const bool touching = i % 4 == 0;  // exactly: the bottom face at z = 0 to the last bit
+    const double yaw = rng.uniform(0.0, 2.0 * M_PI);
+    const double tilt = touching ? 0.0 : rng.uniform(0.0, 1e-3);
+    const double tilt_axis = rng.uniform(0.0, 2.0 * M_PI);
+    const double sink = touching ? 0.0 : rng.uniform(1e-5, 1e-3);
+    Mat3 rotation;
+    rotation << std::cos(yaw), -std::sin(yaw), 0,  //
+        std::sin(yaw), std::cos(yaw), 0,           //
+        0, 0, 1;
+    if (!touching)
+      rotation = Eigen::AngleAxisd(tilt, Vec3(std::cos(tilt_axis), std::sin(tilt_axis), 0)).toRotationMatrix() * rotation;
+    Vec3 corners[4];
+    double highest = -1e300;
+    for (int k = 0; k < 4; ++k) {
+      corners[k] = rotation * Vec3((k & 1) ? e.x() : -e.x(), (k & 2) ? e.y() : -e.y(), -e.z());
+      highest = std::max(highest, corners[k].z());
+    }
+    Pose pose = Pose::identity();
+    pose.rotation = rotation;
+    pose.translation = Vec3(rng.uniform(1.0, 12.0), rng.uniform(0.5, 3.5), touching ? e.z() : -highest - sink);
+    ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+    bool matched[4] = {false, false, false, false};
+    double worst = 0.0;
+    for (const Contact& c : contacts) {
+      int best = -1;
+      double best_distance = 1e300;
+      for (int k = 0; k < 4; ++k) {
+        const double d = (c.point - (pose.translation + corners[k])).norm();
+        if (!matched[k] && d < best_distance) best_distance = d, best = k;
+      }
+      if (best < 0) continue;
+      matched[best] = true;
+      const double depth = -(pose.translation + corners[best]).z();
+      worst = std::max({worst, best_distance, std::abs(c.depth - depth), 1.0 - c.normal.z()});
+    }
+    bool normals = true;
+    for (const Contact& c : contacts) normals = normals && 1.0 - c.normal.z() <= 1e-12;
+    const bool at_corners = worst <= 1e-9 && matched[0] && matched[1] && matched[2] && matched[3];
+    if (!touching) {
+      ++sunk;
+      if (!at_corners && contacts.size() == 4 && normals) {  // the known case above
+        ++off_corner;
+        worst_off = std::max(worst_off, worst);
+        continue;
+      }
+    }
+    const bool ok = contacts.size() == 4 && normals && at_corners;
+    if (!ok) {
+      ++failures;
+      std::string got;
+      for (const Contact& c : contacts)
+        got += " (" + std::to_string(c.point.x()) + ", " + std::to_string(c.point.y()) + ", depth " +
+               std::to_string(c.depth) + ")";
+      ADD_FAILURE() << "placement " << i << ": box half extents 0.25, yaw " << yaw << ", tilt " << tilt
+                    << " about azimuth " << tilt_axis << ", centre (" << pose.translation.x() << ", "
+                    << pose.translation.y() << ", " << pose.translation.z() << "), touching " << touching << ": "
+                    << contacts.size() << " contacts, worst corner mismatch " << worst << ";" << got;
+    }
   }
+  std::printf("| core box lying on the floor | %d sunk placements | %d with a contact off its corner (worst %.3g m) |\n",
+              sunk, off_corner, worst_off);
+  EXPECT_LE(off_corner, sunk / 200) << "worst " << worst_off << " m";
+}
+
+// The contacts themselves, step by step along the override's slide: the
+// same as dCollide(box, plane) at the same pose (count, points, depths,
+// normals, to 1e-9 of the box's size). The floor is flat, so any difference
+// is an artefact of the tessellation (e.g. a manifold point that moves as
+// the box crosses internal edges).
+TEST(OdeRolling, BoxContactsEqualThePlanes) {
+  for (const Ground& g : kGrounds) {
+    dGeomID plane = nullptr;
+    int steps = 0, worst_step = -1;
+    double worst = 0.0;
+    std::string first_problem;
+    dContactGeom expected[8];
+    int expected_count = -1;
+    const auto each = [&](int i, World& world, dBodyID body) {
+      ++steps;
+      // Step i's contacts were made at the pose before it, where the plane's
+      // were computed at the end of step i - 1.
+      if (expected_count >= 0) {
+        const auto& seen = world.lastContacts();
+        if (static_cast<int>(seen.size()) != expected_count && first_problem.empty())
+          first_problem = "step " + std::to_string(i) + ": " + std::to_string(seen.size()) + " contacts, plane " +
+                          std::to_string(expected_count);
+        for (const World::Seen& c : seen) {
+          const double sign = c.geom.g1 == c.shape ? 1.0 : -1.0;  // normal into the box, as dCollide(box, plane)
+          double best = 1e300, error = 0.0;
+          for (int k = 0; k < expected_count; ++k) {
+            const Vec3 d(c.geom.pos[0] - expected[k].pos[0], c.geom.pos[1] - expected[k].pos[1],
+                         c.geom.pos[2] - expected[k].pos[2]);
+            if (d.norm() < best) {
+              best = d.norm();
+              const Vec3 dn(sign * c.geom.normal[0] - expected[k].normal[0],
+                            sign * c.geom.normal[1] - expected[k].normal[1],
+                            sign * c.geom.normal[2] - expected[k].normal[2]);
+              error = std::max({best, std::abs(c.geom.depth - expected[k].depth), 0.5 * dn.norm()});
+            }
+          }
+          if (error > worst) worst = error, worst_step = i;
+        }
+      }
+      // The plane geom is made in the session the slide opens.
+      if (plane == nullptr) plane = dCreatePlane(nullptr, 0, 0, 1, 0);
+      expected_count = dCollide(dBodyGetFirstGeom(body), plane, 8, expected, sizeof(dContactGeom));
+    };
+    odetest::slideBox(Mode::kOverride, g.make(), kLength, nullptr, nullptr, each);
+    std::printf("| box sliding, %s: override's contacts vs the plane's at the same pose | %d steps | worst "
+                "difference %.3g m (step %d) |\n",
+                g.name, steps, worst, worst_step);
+    EXPECT_TRUE(first_problem.empty()) << g.name << ": " << first_problem;
+    EXPECT_LE(worst, 1e-9 * 0.5) << g.name << ": worst at step " << worst_step;
+  }
+}
+
+// The reference's own sensitivity: the plane's contacts handed to
+// dWorldQuickStep in each of the 24 orders of its 4 contacts. Printed (it
+// explains the box's upward-velocity figure) and checked only for what that
+// explanation relies on: the order alone moves the plane's peak upward
+// velocity by more than the issue's 1.5x.
+TEST(OdeRolling, PlaneBoxFiguresDependOnContactOrder) {
+  int perm[4] = {0, 1, 2, 3};
+  double lo_v = 1e300, hi_v = 0.0, lo_w = 1e300, hi_w = 0.0;
+  do {
+    WorldParams params;
+    params.reorder = [&](dContact* c, int n) {
+      if (n != 4) return;
+      const dContact copy[4] = {c[0], c[1], c[2], c[3]};
+      for (int k = 0; k < 4; ++k) c[k] = copy[perm[k]];
+    };
+    const Peaks p = odetest::slideBox(Mode::kPlane, {}, kLength, nullptr, nullptr, nullptr, params);
+    lo_v = std::min(lo_v, p.up_velocity), hi_v = std::max(hi_v, p.up_velocity);
+    lo_w = std::min(lo_w, p.angular_velocity), hi_w = std::max(hi_w, p.angular_velocity);
+  } while (std::next_permutation(perm, perm + 4));
+  std::printf("| box sliding on the ODE plane, its 4 contacts in each of 24 orders | peak v_up %.3g .. %.3g m/s | "
+              "peak |w| %.3g .. %.3g rad/s |\n",
+              lo_v, hi_v, lo_w, hi_w);
+  EXPECT_GT(hi_v, 1.5 * lo_v);
 }
 
 TEST(OdeRolling, CapsuleRollsLikeOnAPlane) {

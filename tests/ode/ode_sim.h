@@ -2,7 +2,14 @@
 // A small ODE simulation harness for the adapter's tests: one ODE session per
 // run (so every run starts from ODE's native collider table), a ground made
 // of one or several trimesh pieces (or an analytic plane), bodies, a near
-// callback that counts contacts per body, and per-step observation.
+// callback that counts contacts per body, and per-step observation; and the
+// scenes of issue 4 (sphere rolling, box sliding, capsule rolling) that the
+// tests check and benchmarks/dynamics/dynamics_traces records.
+//
+// Shared by the tests (GoogleTest: a failed setup step is an EXPECT
+// failure) and by benchmarks/dynamics, which defines
+// MESHCONTACT_ODESIM_NO_GTEST (a failed setup step is printed to stderr and
+// exits with status 2: the figures would be meaningless).
 //
 // Parameters (DESIGN.md §5): dt = 1/120, gravity 9.81, dWorldQuickStep,
 // world CFM 1e-5 and ERP 0.2 (ODE's documented defaults), dContactApprox1
@@ -12,15 +19,27 @@
 #include <meshcontact/ode.h>
 #include <meshcontact_scenes/scenes.h>
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <string>
 #include <vector>
+
+#ifndef MESHCONTACT_ODESIM_NO_GTEST
+#include <gtest/gtest.h>
+#define MESHCONTACT_ODESIM_CHECK(status) EXPECT_TRUE((status).isOk()) << (status).message()
+#else
+#define MESHCONTACT_ODESIM_CHECK(status)                                                  \
+  do {                                                                                    \
+    if (!(status).isOk()) {                                                               \
+      std::fprintf(stderr, "ode_sim setup failed: %s\n", (status).message().c_str());    \
+      std::exit(2);                                                                       \
+    }                                                                                     \
+  } while (false)
+#endif
 
 namespace meshcontact::odetest {
 
@@ -69,6 +88,9 @@ struct WorldParams {
   bool group_pieces = true;   // makeGroup over the ground pieces (override / filter)
   bool body_body = true;      // collide bodies with each other
   double rolling_friction = 0.0;  // dContactRolling rho (0: off): a rolling sphere otherwise never stops
+  /// When set, called on each pair's contacts (from dCollide) before the
+  /// joints are made: e.g. to hand them to the solver in another order.
+  std::function<void(dContact* contacts, int count)> reorder;
 };
 
 struct BodyStats {
@@ -87,7 +109,7 @@ class World {
     joints_ = dJointGroupCreate(0);
     if (mode == Mode::kOverride) {
       const Status s = ode::installColliders();
-      EXPECT_TRUE(s.isOk()) << s.message();
+      MESHCONTACT_ODESIM_CHECK(s);
     }
     if (mode == Mode::kPlane) {
       ground_.push_back(dCreatePlane(space_, 0, 0, 1, 0));
@@ -95,7 +117,7 @@ class World {
       for (const scenes::SceneMesh& piece : pieces) addPiece(piece);
       if (params.group_pieces && ground_.size() > 1 && mode != Mode::kNative) {
         const Status s = ode::makeGroup(ground_.data(), static_cast<int>(ground_.size()));
-        EXPECT_TRUE(s.isOk()) << s.message();
+        MESHCONTACT_ODESIM_CHECK(s);
       }
     }
   }
@@ -183,13 +205,13 @@ class World {
     } else {
       const Status s = ode::buildTriMeshDataDouble(d, v.data(), 3 * sizeof(double), static_cast<int>(v.size() / 3),
                                                    idx.data(), static_cast<int>(idx.size()), 3 * sizeof(dTriIndex));
-      EXPECT_TRUE(s.isOk()) << s.message();
+      MESHCONTACT_ODESIM_CHECK(s);
     }
     data_.push_back(d);
     dGeomID g = dCreateTriMesh(space_, d, nullptr, nullptr, nullptr);
     if (mode_ == Mode::kTriangleFilter) {
       const Status s = ode::attachTriangleFilter(g);
-      EXPECT_TRUE(s.isOk()) << s.message();
+      MESHCONTACT_ODESIM_CHECK(s);
     }
     ground_.push_back(g);
   }
@@ -204,6 +226,7 @@ class World {
     std::vector<dContact>& c = self.buffer_;
     c.resize(static_cast<std::size_t>(self.params_.max_contacts));
     const int n = dCollide(a, b, self.params_.max_contacts, &c[0].geom, sizeof(dContact));
+    if (self.params_.reorder && n > 0) self.params_.reorder(c.data(), n);
     dBodyID b1 = dGeomGetBody(a), b2 = dGeomGetBody(b);
     for (int i = 0; i < n; ++i) {
       c[i].surface.mode = dContactApprox1;
@@ -272,16 +295,26 @@ struct Peaks {
   bool finite = true;
 };
 
+/// One observation of a body after a step.
+struct Sample {
+  double t = 0.0;   // time since the first tracked step began (s)
+  double z = 0.0;   // centre height (m)
+  double vz = 0.0;  // upward velocity (m/s)
+  double w = 0.0;   // |angular velocity| (rad/s)
+};
+
 /// Steps `steps` times, recording the body's peaks relative to its state at
-/// the first step.
-inline Peaks track(World& world, dBodyID body, int steps, const std::function<void(int)>& each = nullptr) {
+/// the first step (and, when `samples` is given, appending one Sample per step).
+inline Peaks track(World& world, dBodyID body, int steps, const std::function<void(int)>& each = nullptr,
+                   std::vector<Sample>* samples = nullptr, double dt = 1.0 / 120.0) {
   Peaks p;
   const double z0 = position(body).z();
   long total = 0;
   for (int i = 0; i < steps; ++i) {
-    world.step();
+    world.step(dt);
     if (each) each(i);
     const Vec3 x = position(body), v = velocity(body), w = angularVelocity(body);
+    if (samples) samples->push_back({(i + 1) * dt, x.z(), v.z(), w.norm()});
     if (!x.allFinite() || !v.allFinite() || !w.allFinite()) p.finite = false;
     p.up_velocity = std::max(p.up_velocity, v.z());
     p.height_deviation = std::max(p.height_deviation, std::abs(x.z() - z0));
@@ -299,6 +332,64 @@ inline std::string describe(const Peaks& p) {
   std::snprintf(buf, sizeof buf, "peak v_up %.3g m/s, peak |dz| %.3g m, peak |w| %.3g rad/s, contacts/step max %d mean %.2f",
                 p.up_velocity, p.height_deviation, p.angular_velocity, p.max_contacts, p.mean_contacts);
   return buf;
+}
+
+// --- Issue 4's scenes ------------------------------------------------------------
+// The ground: a floor of 0.5 m cells with random diagonals (scenes::flatFloor)
+// as one trimesh, or the same floor as separate tiles (scenes::tiledFloor).
+// Each scene runs `settle` steps at rest, launches the body, then tracks it
+// for `run` steps (dt = 1/120).
+
+struct RunLength {
+  int settle = 30;  // 0.25 s at rest before the launch
+  int run = 240;    // 2 s
+};
+
+/// A sphere of radius 0.25 rolling without slipping at 5 m/s (mu = 1).
+inline Peaks rollSphere(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
+                        bool group_pieces = true, std::vector<Sample>* samples = nullptr) {
+  Session session;
+  WorldParams params;
+  params.group_pieces = group_pieces;
+  World world(mode, ground, params);
+  const double r = 0.25;
+  dBodyID b = world.addSphere(r, Vec3(1.0, 2.1, r));
+  for (int i = 0; i < length.settle; ++i) world.step();
+  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
+  return track(world, b, length.run, nullptr, samples);
+}
+
+/// A 0.5 m cube sliding at 3 m/s with mu = 0.2 (it stops after ~1.5 s),
+/// set down exactly touching the ground. `rest` receives the figures of the
+/// settling steps before the launch; `each(step, world)` runs after every
+/// step of the slide.
+inline Peaks slideBox(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
+                      Peaks* rest = nullptr, std::vector<Sample>* samples = nullptr,
+                      const std::function<void(int, World&, dBodyID)>& each = nullptr,
+                      const WorldParams& base = WorldParams()) {
+  Session session;
+  WorldParams params = base;
+  params.mu = 0.2;
+  World world(mode, ground, params);
+  dBodyID b = world.addBox(Vec3(0.5, 0.5, 0.5), Vec3(1.0, 2.1, 0.25));
+  const Peaks at_rest = track(world, b, length.settle);
+  if (rest) *rest = at_rest;
+  setVelocity(b, Vec3(3, 0, 0), Vec3::Zero());
+  std::function<void(int)> hook;
+  if (each) hook = [&](int i) { each(i, world, b); };
+  return track(world, b, length.run, hook, samples);
+}
+
+/// A capsule (radius 0.2, segment 0.5) lying along y, rolling along x at 5 m/s.
+inline Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
+                         std::vector<Sample>* samples = nullptr) {
+  Session session;
+  World world(mode, ground);
+  const double r = 0.2;
+  dBodyID b = world.addCapsule(r, 0.5, Vec3(1.0, 2.1, r), axisAlongY());
+  for (int i = 0; i < length.settle; ++i) world.step();
+  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
+  return track(world, b, length.run, nullptr, samples);
 }
 
 /// One line of the figures table (printed by the tests, collected in the report).

@@ -1,9 +1,21 @@
-// The lighter mode: ODE's own trimesh colliders, fed only the triangles that
-// keep a contact after the voided-features filter (reference §5).
+// The lighter mode: ODE's own trimesh colliders, kept away from the
+// triangles whose contacts the voided-features filter rejects (reference §5).
+//
+// What is rejected: a triangle whose contact the filter voided (an internal
+// edge or vertex: the ghost contacts), or that the shape is behind (the
+// one-sided rule, reference §4a), or that is degenerate. Everything else is
+// left to ODE's collider, including triangles the core finds just out of
+// contact: ODE's colliders do not measure depth exactly as the core does
+// (its cylinder-trimesh collider reports ~2.5 mm of penetration on a
+// resting cylinder where the core finds it 1e-6 m apart), so a filter that
+// also decided WHETHER a triangle touches would hand ODE's contact to the
+// solver one step and take it away the next: a resting cylinder then
+// bounced at 0.1 m/s for ever. The filter removes ghosts; ODE keeps deciding
+// contact.
 //
 // ODE calls the per-triangle callback for each triangle its midphase found,
 // one collision at a time, and gives no "new collision" signal. The set of
-// kept triangles is a pure function of the pair's inputs (both poses, the
+// rejected triangles is a pure function of the pair's inputs (both poses, the
 // shape's parameters, the meshes, the settings), so it is computed on the
 // first triangle of a collision and reused while those inputs are unchanged.
 #include "adapter.h"
@@ -27,7 +39,7 @@ struct Memo {
   std::vector<dGeomID> members;    // the trimesh geoms the query gathered
   std::vector<Pose> member_poses;  // and their poses then
   detail::ShapeQuery params;       // parameters only (pose unused)
-  std::vector<std::uint32_t> kept;  // sorted triangle indices of `trimesh`
+  std::vector<std::uint32_t> rejected;  // sorted triangle indices of `trimesh`
 };
 
 Memo& threadMemo() {
@@ -65,7 +77,7 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   m.trimesh_pose = detail::geomPose(trimesh);
   m.shape_pose = detail::geomPose(shape);
   m.data = dGeomTriMeshGetData(trimesh);
-  m.kept.clear();
+  m.rejected.clear();
   m.members.clear();
   m.member_poses.clear();
   if (detail::shapeBit(dGeomGetClass(shape)) == 0) {
@@ -95,24 +107,30 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   }
   m.params = ctx.shape;
   m.params.pose = Pose();
-  // The filter's verdicts (not the manifold reduction's survivors): every
-  // triangle whose contact the filter kept may give ODE its contacts.
+  // The filter's verdicts (not the manifold reduction's survivors).
+  std::uint64_t contacts = 0;
   for (const TraceEntry& e : ctx.trace) {
     if (e.mesh != own) continue;
-    if (e.verdict == Verdict::kFaceContact || e.verdict == Verdict::kEdgeContact ||
-        e.verdict == Verdict::kVertexContact)
-      m.kept.push_back(e.triangle);
+    switch (e.verdict) {
+      case Verdict::kVoided:
+      case Verdict::kBackFacing:
+      case Verdict::kDegenerate: m.rejected.push_back(e.triangle); break;
+      case Verdict::kFaceContact:
+      case Verdict::kEdgeContact:
+      case Verdict::kVertexContact: ++contacts; break;
+      case Verdict::kBeyondContactDistance: break;
+    }
   }
   ctx.held.clear();
-  std::sort(m.kept.begin(), m.kept.end());
-  r.contacts_found.fetch_add(m.kept.size(), std::memory_order_relaxed);
+  std::sort(m.rejected.begin(), m.rejected.end());
+  r.contacts_found.fetch_add(contacts, std::memory_order_relaxed);
 }
 
 int triangleFilter(dGeomID trimesh, dGeomID shape, int triangle) {
   Memo& m = threadMemo();
   if (!memoHolds(m, trimesh, shape)) recompute(m, trimesh, shape);
   if (m.pass_all) return 1;
-  return std::binary_search(m.kept.begin(), m.kept.end(), static_cast<std::uint32_t>(triangle)) ? 1 : 0;
+  return std::binary_search(m.rejected.begin(), m.rejected.end(), static_cast<std::uint32_t>(triangle)) ? 0 : 1;
 }
 
 }  // namespace

@@ -9,8 +9,8 @@
 //    dSetColliderOverride. Trimesh geoms, near callbacks and contact joints
 //    stay as they are.
 // 2. The lighter mode: attachTriangleFilter(trimesh) keeps ODE's own
-//    colliders, but lets them see only the triangles whose contacts the
-//    voided-features filter keeps (dGeomTriMeshSetCallback).
+//    colliders, but hides from them the triangles whose contacts the
+//    voided-features filter rejects (dGeomTriMeshSetCallback).
 // 3. Disjoint meshes (reference §6): makeGroup() makes several trimesh geoms
 //    one surface for the filter (tiles, streamed track pieces), so their
 //    seams give no edge contacts; collideWithGroup() does the same from a
@@ -196,13 +196,21 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
 // --- The lighter mode: ODE's own colliders, filtered triangles -------------------
 
 /// Sets this trimesh geom's per-triangle callback (dGeomTriMeshSetCallback)
-/// to one that accepts only the triangles that produce a contact after the
-/// voided-features filter for the shape being collided (face contacts, and
-/// the edge and vertex contacts that are not voided). ODE's collider then
-/// makes its contacts from those triangles only. Replaces any callback the
-/// geom had. Shapes outside kAllShapes (rays, other trimeshes) see every
-/// triangle. The result for a pair is computed once per pose and reused for
-/// the other triangles of the same collision.
+/// to one that rejects the triangles the voided-features filter rejects for
+/// the shape being collided: a voided edge or vertex contact (the internal
+/// edges' ghost contacts), the shape behind the triangle (one-sided, as the
+/// override), a degenerate triangle. The other triangles, including those
+/// the core finds just out of contact, are left to ODE's collider, which
+/// keeps deciding whether they touch (ODE's depths differ from the core's:
+/// its cylinder collider reports millimetres of penetration where the core
+/// finds none, and taking such triangles away makes resting bodies bounce).
+/// ODE's collider makes the contacts, with its own normals and depths: the
+/// mode removes ghost contacts, it does not make ODE's other contacts exact
+/// (e.g. a sphere pivoting on a cliff's edge still gets a triangle's normal,
+/// not the edge's). Replaces any callback the geom had. Shapes outside
+/// kAllShapes (rays, other trimeshes) see every triangle. The result for a
+/// pair is computed once per pose and reused for the other triangles of the
+/// same collision.
 /// Not useful together with installColliders for the same shapes: the
 /// override ignores trimesh callbacks.
 /// Errors: kInvalidSettings (not a trimesh geom).
