@@ -1,26 +1,48 @@
-// fcl::collide against meshcontact::fcl::collide (the drop-in) on the same
-// poses, same run, single thread (DESIGN.md §5: median ns per query).
+// fcl::collide against the drop-in meshcontact::fcl::collide on the same
+// poses, in the same run, single thread (DESIGN.md §5: median ns per query).
 //
-// Scene: a sine terrain of 224 x 224 cells x 2 = 100,352 triangles (cells of
-// 0.5 m, amplitude 0.5 m, wavelength 8 m) as one fcl::BVHModel<OBBRSS>
-// (and <AABB> for the sphere, to show FCL's per-call model copy). Shapes: a
-// sphere (r 0.25), a capsule (r 0.15, lz 0.5), a box (0.6 x 0.4 x 0.3).
-// 4096 seeded poses over the whole terrain, random orientations, the shape's
-// centre from 0.5 h below to 1.5 h above the analytic surface (h: the
-// shape's half size), so most poses collide and some are near misses;
-// consecutive queries touch unrelated parts of the BVH (cold-ish caches).
+// Scenes: 224 x 224 cells x 2 = 100,352 triangles (cells of 0.5 m), each one
+// fcl::BVHModel<OBBRSS>:
+//   Flat: scenes::flatFloor (z = 0, random diagonals, in-plane jitter);
+//   Sine: scenes::sineTerrain (amplitude 0.5 m, wavelength 8 m: faces, edges
+//         and vertices all give contacts).
+// Shapes: sphere (r 0.25), capsule (r 0.15, lz 0.5), box (0.6 x 0.4 x 0.3),
+// cylinder (r 0.25, lz 0.4), convex (a hexagonal prism, circumradius 0.3,
+// height 0.4, 12 vertices).
+// 4096 seeded poses per scene and shape over the whole terrain, random
+// orientations, the shape's centre from 0.5 h below to 1.5 h above the
+// analytic surface (h: half the shape's largest extent), so that most poses
+// collide and some are near misses; consecutive queries touch unrelated parts
+// of the hierarchy (cold-ish caches, as with many bodies). Every variant of a
+// (scene, shape) pair cycles through the same pose list.
 //
-// Each iteration is one query; the reported time is ns per query. Variants:
-//   Contacts: CollisionRequest(1000, enable_contact = true): every contact.
+// Variants (each iteration is one query: the reported time is ns per query):
+//   Fcl           fcl::collide, GJK solver GST_LIBCCD (FCL's default).
+//   DropIn        meshcontact::fcl::collide(o1, o2, request, result): the
+//                 four-argument drop-in exactly as a user calls it (default
+//                 options, its thread_local scratch), walking the model's
+//                 own OBBRSS hierarchy.
+//   DropInCached  the Status variant with Options::cache (a ModelCache
+//                 holding the core's compact hierarchy of the model).
+// Requests:
+//   Contacts: CollisionRequest(100, enable_contact = true): every contact.
 //   Boolean:  CollisionRequest(1, enable_contact = false): collision checking.
-//   FclThenPostFilter: fcl::collide with contacts, then postFilter (recompute).
-//   DropInCached: the drop-in with a ModelCache (the core's compact BVH).
+// Extras: FclThenPostFilter (fcl::collide with contacts, then postFilter,
+// recompute mode) and the sphere on an AABB model (FCL copies an AABB model
+// on every call, DESIGN.md §4; the drop-in walks it in place).
+//   Core          the core's own query (collideSphere, ...) on a TriangleMesh
+//                 of the same mesh: the floor under the drop-in.
 // Counters: contacts = contacts per query, hits = fraction in collision.
 //
-// Reproduce (Release build):
-//   <build>/benchmarks/fcl/fcl_bench --benchmark_min_time=0.5
-// (each benchmark runs 5 repetitions and reports mean, median, stddev).
+// After the runs, a table gives the median CPU ns per query of each variant
+// and fcl::collide's median divided by it (the speed-up).
+//
+// Reproduce (Release build; random interleaving spreads a machine's changing
+// load over all variants):
+//   <build>/benchmarks/fcl/fcl_bench --benchmark_enable_random_interleaving=true
+//   <build>/benchmarks/fcl/fcl_bench --benchmark_filter='Sine/Sphere'
 #include <meshcontact/fcl.h>
+#include <meshcontact/meshcontact.h>
 #include <meshcontact_scenes/scenes.h>
 
 #include <benchmark/benchmark.h>
@@ -29,6 +51,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -43,13 +66,28 @@ constexpr double kCell = 0.5;
 constexpr double kAmplitude = 0.5;
 constexpr double kWavelength = 8.0;
 constexpr int kPoses = 4096;
+constexpr int kRepetitions = 5;
 
-enum ShapeId { kSphere = 0, kCapsule = 1, kBox = 2 };
-const char* const kShapeNames[] = {"Sphere", "Capsule", "Box"};
+enum SceneId { kFlat = 0, kSine = 1, kSceneCount = 2 };
+const char* const kSceneNames[] = {"Flat", "Sine"};
+enum ShapeId { kSphere = 0, kCapsule, kBox, kCylinder, kConvex, kShapeCount };
+const char* const kShapeNames[] = {"Sphere", "Capsule", "Box", "Cylinder", "Convex"};
 
-double surfaceHeight(double x, double y) {
+double surfaceHeight(SceneId scene, double x, double y) {
+  if (scene == kFlat) return 0.0;
   const double k = 2.0 * M_PI / kWavelength;
   return kAmplitude * std::sin(k * x) * std::sin(k * y);
+}
+
+std::shared_ptr<fcl::Convexd> hexPrism(double a, double c) {
+  auto v = std::make_shared<std::vector<fcl::Vector3d>>();
+  for (int z = 0; z < 2; ++z)
+    for (int k = 0; k < 6; ++k) v->emplace_back(a * std::cos(k * M_PI / 3), a * std::sin(k * M_PI / 3), z == 0 ? c : -c);
+  auto f = std::make_shared<std::vector<int>>();
+  f->insert(f->end(), {6, 0, 1, 2, 3, 4, 5});
+  f->insert(f->end(), {6, 11, 10, 9, 8, 7, 6});
+  for (int k = 0; k < 6; ++k) f->insert(f->end(), {4, k + 6, (k + 1) % 6 + 6, (k + 1) % 6, k});
+  return std::make_shared<fcl::Convexd>(v, 8, f);
 }
 
 std::shared_ptr<fcl::CollisionGeometryd> makeShape(ShapeId id) {
@@ -57,11 +95,24 @@ std::shared_ptr<fcl::CollisionGeometryd> makeShape(ShapeId id) {
     case kSphere: return std::make_shared<fcl::Sphered>(0.25);
     case kCapsule: return std::make_shared<fcl::Capsuled>(0.15, 0.5);
     case kBox: return std::make_shared<fcl::Boxd>(0.6, 0.4, 0.3);
+    case kCylinder: return std::make_shared<fcl::Cylinderd>(0.25, 0.4);
+    case kConvex: return hexPrism(0.3, 0.2);
+    case kShapeCount: break;
   }
   return nullptr;
 }
 
-double halfSize(ShapeId id) { return id == kSphere ? 0.25 : id == kCapsule ? 0.4 : 0.3; }
+double halfSize(ShapeId id) {
+  switch (id) {
+    case kSphere: return 0.25;
+    case kCapsule: return 0.4;
+    case kBox: return 0.3;
+    case kCylinder: return 0.25;
+    case kConvex: return 0.3;
+    case kShapeCount: break;
+  }
+  return 0.0;
+}
 
 template <class BV>
 std::shared_ptr<fcl::BVHModel<BV>> buildModel(const scenes::SceneMesh& m) {
@@ -76,30 +127,52 @@ std::shared_ptr<fcl::BVHModel<BV>> buildModel(const scenes::SceneMesh& m) {
   return model;
 }
 
-struct Fixture {
-  scenes::SceneMesh scene;
+struct SceneFixture {
   std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> obbrss;
-  std::shared_ptr<fcl::BVHModel<fcl::AABBd>> aabb;
-  std::vector<fcl::Transform3d> poses[3];
+  mc::TriangleMesh core;  // the same mesh for the core's own queries
+  std::vector<fcl::Transform3d> poses[kShapeCount];
 };
 
-const Fixture& fixture() {
+struct Fixture {
+  SceneFixture scenes[kSceneCount];
+  mc::ConvexHull prism;  // the convex shape's vertices as the core's hull, margin 0
+  std::shared_ptr<fcl::BVHModel<fcl::AABBd>> sine_aabb;
+  mc::fcl::ModelCache cache;  // both OBBRSS models
+};
+
+Fixture& fixture() {
   static std::unique_ptr<Fixture> f;
   if (f) return *f;
   f = std::make_unique<Fixture>();
-  f->scene = scenes::sineTerrain(kCells, kCells, kCell, kAmplitude, kWavelength, 7);
-  f->obbrss = buildModel<fcl::OBBRSSd>(f->scene);
-  f->aabb = buildModel<fcl::AABBd>(f->scene);
-  scenes::Rng rng(2025);
   const double extent = kCells * kCell;
-  for (int s = 0; s < 3; ++s) {
-    const double h = halfSize(static_cast<ShapeId>(s));
-    for (int i = 0; i < kPoses; ++i) {
-      fcl::Transform3d tf = fcl::Transform3d::Identity();
-      tf.linear() = rng.rotation();
-      const double x = rng.uniform(1.0, extent - 1.0), y = rng.uniform(1.0, extent - 1.0);
-      tf.translation() = fcl::Vector3d(x, y, surfaceHeight(x, y) + h * rng.uniform(-0.5, 1.5));
-      f->poses[s].push_back(tf);
+  for (int s = 0; s < kSceneCount; ++s) {
+    const SceneId scene = static_cast<SceneId>(s);
+    const scenes::SceneMesh mesh = scene == kFlat ? scenes::flatFloor(kCells, kCells, kCell, 7)
+                                                  : scenes::sineTerrain(kCells, kCells, kCell, kAmplitude,
+                                                                        kWavelength, 7);
+    SceneFixture& sf = f->scenes[s];
+    sf.obbrss = buildModel<fcl::OBBRSSd>(mesh);
+    if (scene == kSine) f->sine_aabb = buildModel<fcl::AABBd>(mesh);
+    for (const mc::Status& st : {f->cache.add(sf.obbrss.get()), sf.core.build(mesh.view())})
+      if (!st) {
+        std::fprintf(stderr, "fixture: %s\n", st.message().c_str());
+        std::abort();
+      }
+    scenes::Rng rng(2025 + 17 * s);
+    if (s == 0) {
+      const auto prism = hexPrism(0.3, 0.2);
+      const std::vector<mc::Vec3> points(prism->getVertices().begin(), prism->getVertices().end());
+      if (!f->prism.build(points, 0.0)) std::abort();
+    }
+    for (int k = 0; k < kShapeCount; ++k) {
+      const double h = halfSize(static_cast<ShapeId>(k));
+      for (int i = 0; i < kPoses; ++i) {
+        fcl::Transform3d tf = fcl::Transform3d::Identity();
+        tf.linear() = rng.rotation();
+        const double x = rng.uniform(1.0, extent - 1.0), y = rng.uniform(1.0, extent - 1.0);
+        tf.translation() = fcl::Vector3d(x, y, surfaceHeight(scene, x, y) + h * rng.uniform(-0.5, 1.5));
+        sf.poses[k].push_back(tf);
+      }
     }
   }
   return *f;
@@ -108,18 +181,12 @@ const Fixture& fixture() {
 enum class Mode { kContacts, kBoolean };
 
 fcl::CollisionRequestd request(Mode mode) {
-  return mode == Mode::kContacts ? fcl::CollisionRequestd(1000, true) : fcl::CollisionRequestd(1, false);
-}
-
-void setCounters(benchmark::State& state, double contacts, double hits) {
-  state.SetItemsProcessed(state.iterations());
-  state.counters["contacts"] = benchmark::Counter(contacts, benchmark::Counter::kAvgIterations);
-  state.counters["hits"] = benchmark::Counter(hits, benchmark::Counter::kAvgIterations);
+  return mode == Mode::kContacts ? fcl::CollisionRequestd(100, true) : fcl::CollisionRequestd(1, false);
 }
 
 template <class Model, class Collide>
-void run(benchmark::State& state, const std::shared_ptr<Model>& model, ShapeId id, Mode mode, Collide&& collide) {
-  const Fixture& f = fixture();
+void run(benchmark::State& state, const std::shared_ptr<Model>& model, const std::vector<fcl::Transform3d>& poses,
+         ShapeId id, Mode mode, Collide&& collide) {
   fcl::CollisionObjectd mesh(model);
   fcl::CollisionObjectd shape(makeShape(id));
   const fcl::CollisionRequestd req = request(mode);
@@ -127,93 +194,203 @@ void run(benchmark::State& state, const std::shared_ptr<Model>& model, ShapeId i
   std::size_t i = 0;
   double contacts = 0, hits = 0;
   for (auto _ : state) {
-    shape.setTransform(f.poses[id][i]);
+    shape.setTransform(poses[i]);
     result.clear();
     collide(&mesh, &shape, req, result);
     benchmark::DoNotOptimize(result.numContacts());
     contacts += static_cast<double>(result.numContacts());
     hits += result.isCollision();
-    if (++i == f.poses[id].size()) i = 0;
+    if (++i == poses.size()) i = 0;
   }
-  setCounters(state, contacts, hits);
+  state.SetItemsProcessed(state.iterations());
+  state.counters["contacts"] = benchmark::Counter(contacts, benchmark::Counter::kAvgIterations);
+  state.counters["hits"] = benchmark::Counter(hits, benchmark::Counter::kAvgIterations);
 }
 
-void BM_Fcl(benchmark::State& state, ShapeId id, Mode mode) {
-  run(state, fixture().obbrss, id, mode,
+void BM_Fcl(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+  const SceneFixture& sf = fixture().scenes[scene];
+  run(state, sf.obbrss, sf.poses[id], id, mode,
       [](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
          fcl::CollisionResultd& out) { fcl::collide(a, b, r, out); });
 }
 
-void BM_DropIn(benchmark::State& state, ShapeId id, Mode mode) {
-  mc::fcl::Scratch scratch;
-  const mc::fcl::Options options;
-  run(state, fixture().obbrss, id, mode,
+void BM_DropIn(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+  const SceneFixture& sf = fixture().scenes[scene];
+  bool failed = false;
+  run(state, sf.obbrss, sf.poses[id], id, mode,
       [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
           fcl::CollisionResultd& out) {
-        const mc::Status s = mc::fcl::collide(a, b, r, out, options, scratch);
-        if (!s) state.SkipWithError(s.message().c_str());
+        mc::fcl::collide(a, b, r, out);
+        failed |= !mc::fcl::lastStatus().isOk();
       });
+  if (failed) state.SkipWithError(mc::fcl::lastStatus().message().c_str());
 }
 
-// The same with a ModelCache: the core's compact hierarchy (32-byte nodes)
-// instead of FCL's (256-byte OBBRSS nodes).
-void BM_DropInCached(benchmark::State& state, ShapeId id, Mode mode) {
-  static mc::fcl::ModelCache cache;
-  if (cache.size() == 0 && !cache.add(fixture().obbrss.get())) std::abort();
+void BM_DropInCached(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+  Fixture& f = fixture();
+  const SceneFixture& sf = f.scenes[scene];
   mc::fcl::Scratch scratch;
   mc::fcl::Options options;
-  options.cache = &cache;
-  run(state, fixture().obbrss, id, mode,
+  options.cache = &f.cache;
+  mc::Status status;
+  run(state, sf.obbrss, sf.poses[id], id, mode,
       [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
           fcl::CollisionResultd& out) {
         const mc::Status s = mc::fcl::collide(a, b, r, out, options, scratch);
-        if (!s) state.SkipWithError(s.message().c_str());
+        if (!s && status) status = s;
       });
+  if (!status) state.SkipWithError(status.message().c_str());
 }
 
-void BM_FclThenPostFilter(benchmark::State& state, ShapeId id) {
+// The core's own query on the same mesh and poses (no FCL types, no
+// conversion, no fallback): the floor under the drop-in. The convex shape is
+// the core's ConvexHull of the prism's vertices with margin 0 (the drop-in
+// reads FCL's Convex in place instead).
+void BM_Core(benchmark::State& state, SceneId scene, ShapeId id) {
+  Fixture& f = fixture();
+  const SceneFixture& sf = f.scenes[scene];
+  const mc::QuerySettings settings;
+  mc::QueryScratch scratch;
+  std::vector<mc::Contact> contacts;
+  mc::Status status;
+  std::size_t i = 0;
+  double count = 0, hits = 0;
+  for (auto _ : state) {
+    const fcl::Transform3d& tf = sf.poses[id][i];
+    mc::Pose pose;
+    pose.rotation = tf.linear();
+    pose.translation = tf.translation();
+    mc::Status s;
+    switch (id) {
+      case kSphere: s = mc::collideSphere(sf.core, mc::Sphere{pose.translation, 0.25}, settings, scratch, contacts); break;
+      case kCapsule: s = mc::collideCapsule(sf.core, mc::Capsule{0.15, 0.25}, pose, settings, scratch, contacts); break;
+      case kBox: s = mc::collideBox(sf.core, mc::Box{mc::Vec3(0.3, 0.2, 0.15)}, pose, settings, scratch, contacts); break;
+      case kCylinder: s = mc::collideCylinder(sf.core, mc::Cylinder{0.25, 0.2}, pose, settings, scratch, contacts); break;
+      case kConvex: s = mc::collideConvex(sf.core, f.prism, pose, settings, scratch, contacts); break;
+      case kShapeCount: break;
+    }
+    if (!s && status) status = s;
+    benchmark::DoNotOptimize(contacts.data());
+    count += static_cast<double>(contacts.size());
+    hits += !contacts.empty();
+    if (++i == sf.poses[id].size()) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["contacts"] = benchmark::Counter(count, benchmark::Counter::kAvgIterations);
+  state.counters["hits"] = benchmark::Counter(hits, benchmark::Counter::kAvgIterations);
+  if (!status) state.SkipWithError(status.message().c_str());
+}
+
+void BM_FclThenPostFilter(benchmark::State& state, SceneId scene, ShapeId id) {
+  const SceneFixture& sf = fixture().scenes[scene];
   mc::fcl::Scratch scratch;
   const mc::fcl::Options options;
   fcl::CollisionResultd raw;
-  run(state, fixture().obbrss, id, Mode::kContacts,
+  mc::Status status;
+  run(state, sf.obbrss, sf.poses[id], id, Mode::kContacts,
       [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
           fcl::CollisionResultd& out) {
         raw.clear();
         fcl::collide(a, b, r, raw);
         const mc::Status s = mc::fcl::postFilter(a, b, r, raw, out, options, scratch);
-        if (!s) state.SkipWithError(s.message().c_str());
+        if (!s && status) status = s;
       });
+  if (!status) state.SkipWithError(status.message().c_str());
 }
 
-// FCL copies an AABB model on every call (DESIGN.md §4); the drop-in walks it
-// in place.
 void BM_Fcl_AabbModel(benchmark::State& state) {
-  run(state, fixture().aabb, kSphere, Mode::kContacts,
+  run(state, fixture().sine_aabb, fixture().scenes[kSine].poses[kSphere], kSphere, Mode::kContacts,
       [](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
          fcl::CollisionResultd& out) { fcl::collide(a, b, r, out); });
 }
 void BM_DropIn_AabbModel(benchmark::State& state) {
-  mc::fcl::Scratch scratch;
-  run(state, fixture().aabb, kSphere, Mode::kContacts,
-      [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
-          fcl::CollisionResultd& out) { (void)mc::fcl::collide(a, b, r, out, mc::fcl::Options(), scratch); });
+  run(state, fixture().sine_aabb, fixture().scenes[kSine].poses[kSphere], kSphere, Mode::kContacts,
+      [](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
+         fcl::CollisionResultd& out) { mc::fcl::collide(a, b, r, out); });
 }
 
 void registerAll() {
-  for (int s = 0; s < 3; ++s) {
-    const ShapeId id = static_cast<ShapeId>(s);
-    const std::string name = kShapeNames[s];
-    for (const Mode mode : {Mode::kContacts, Mode::kBoolean}) {
-      const std::string suffix = name + (mode == Mode::kContacts ? "/Contacts" : "/Boolean");
-      benchmark::RegisterBenchmark(("Fcl/" + suffix).c_str(), BM_Fcl, id, mode)->Repetitions(5);
-      benchmark::RegisterBenchmark(("DropIn/" + suffix).c_str(), BM_DropIn, id, mode)->Repetitions(5);
-      benchmark::RegisterBenchmark(("DropInCached/" + suffix).c_str(), BM_DropInCached, id, mode)->Repetitions(5);
+  for (int s = 0; s < kSceneCount; ++s) {
+    const SceneId scene = static_cast<SceneId>(s);
+    for (int k = 0; k < kShapeCount; ++k) {
+      const ShapeId id = static_cast<ShapeId>(k);
+      for (const Mode mode : {Mode::kContacts, Mode::kBoolean}) {
+        const std::string suffix = std::string(kSceneNames[s]) + "/" + kShapeNames[k] +
+                                   (mode == Mode::kContacts ? "/Contacts" : "/Boolean");
+        benchmark::RegisterBenchmark(("Fcl/" + suffix).c_str(), BM_Fcl, scene, id, mode)->Repetitions(kRepetitions);
+        benchmark::RegisterBenchmark(("DropIn/" + suffix).c_str(), BM_DropIn, scene, id, mode)
+            ->Repetitions(kRepetitions);
+        benchmark::RegisterBenchmark(("DropInCached/" + suffix).c_str(), BM_DropInCached, scene, id, mode)
+            ->Repetitions(kRepetitions);
+      }
+      benchmark::RegisterBenchmark(("Core/" + std::string(kSceneNames[s]) + "/" + kShapeNames[k] + "/Contacts").c_str(),
+                                   BM_Core, scene, id)
+          ->Repetitions(kRepetitions);
+      if (id == kSphere || id == kCapsule || id == kBox)
+        benchmark::RegisterBenchmark(
+            ("FclThenPostFilter/" + std::string(kSceneNames[s]) + "/" + kShapeNames[k] + "/Contacts").c_str(),
+            BM_FclThenPostFilter, scene, id)
+            ->Repetitions(kRepetitions);
     }
-    benchmark::RegisterBenchmark(("FclThenPostFilter/" + name).c_str(), BM_FclThenPostFilter, id)->Repetitions(5);
   }
-  benchmark::RegisterBenchmark("Fcl/Sphere/AabbModel", BM_Fcl_AabbModel)->Repetitions(3)->Iterations(200);
-  benchmark::RegisterBenchmark("DropIn/Sphere/AabbModel", BM_DropIn_AabbModel)->Repetitions(5);
+  // FCL's AABB path copies the 100k-triangle model per call (~1 ms): fixed
+  // iterations keep it short.
+  benchmark::RegisterBenchmark("Fcl/Sine/Sphere/AabbModel", BM_Fcl_AabbModel)->Repetitions(3)->Iterations(200);
+  benchmark::RegisterBenchmark("DropIn/Sine/Sphere/AabbModel", BM_DropIn_AabbModel)->Repetitions(kRepetitions);
 }
+
+// The console output, then a table of the medians with fcl::collide's median
+// divided by each variant's (CPU time, ns per query).
+class SummaryReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& r : runs) {
+      if (r.run_type != Run::RT_Aggregate || r.aggregate_name != "median" || r.error_occurred) continue;
+      // run_name.function_name: Variant/Scene/Shape/Request.
+      const std::string& name = r.run_name.function_name;
+      const std::size_t slash = name.find('/');
+      if (slash == std::string::npos) continue;
+      double ns = r.GetAdjustedCPUTime();
+      if (r.time_unit == benchmark::kMicrosecond) ns *= 1e3;
+      if (r.time_unit == benchmark::kMillisecond) ns *= 1e6;
+      medians_[name.substr(slash + 1)][name.substr(0, slash)] = ns;
+    }
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    std::FILE* out = stdout;
+    std::fflush(out);
+    std::fprintf(out, "\nMedian CPU ns per query (speed-up = fcl::collide / variant)\n");
+    std::fprintf(out, "%-26s %9s %9s %7s %9s %7s %9s %7s %9s %7s\n", "case", "Fcl", "DropIn", "x", "Cached", "x",
+                 "FclThenPF", "x", "Core", "x");
+    for (const auto& [name, by_variant] : medians_) {
+      auto get = [&](const char* v) {
+        const auto it = by_variant.find(v);
+        return it == by_variant.end() ? -1.0 : it->second;
+      };
+      const double fcl = get("Fcl");
+      if (fcl > 0)
+        std::fprintf(out, "%-26s %9.0f", name.c_str(), fcl);
+      else
+        std::fprintf(out, "%-26s %9s", name.c_str(), "-");
+      for (const char* v : {"DropIn", "DropInCached", "FclThenPostFilter", "Core"}) {
+        const double t = get(v);
+        if (t > 0 && fcl > 0)
+          std::fprintf(out, " %9.0f %6.1fx", t, fcl / t);
+        else if (t > 0)
+          std::fprintf(out, " %9.0f %7s", t, "-");
+        else
+          std::fprintf(out, " %9s %7s", "-", "-");
+      }
+      std::fprintf(out, "\n");
+    }
+    std::fflush(out);
+  }
+
+ private:
+  std::map<std::string, std::map<std::string, double>> medians_;
+};
 
 }  // namespace
 
@@ -221,8 +398,9 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   registerAll();
-  fixture();  // build the models before timing
-  benchmark::RunSpecifiedBenchmarks();
+  fixture();  // build the models and the cache before timing
+  SummaryReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
   benchmark::Shutdown();
   return 0;
 }

@@ -16,7 +16,7 @@
 namespace meshcontact::fcltest {
 namespace {
 
-constexpr int kPoses = 10000;
+const int kPoses = testing::scaled(10000);
 constexpr double kTouch = 1e-5;  // relative to the shape's size
 
 struct MeshCase {

@@ -51,7 +51,8 @@ TEST(Broadphase, TilesAreOneSurface) {
   fcl::Scratch scratch;
   QueryScratch core_scratch;
   std::vector<Contact> core_contacts;
-  for (; rounds < 100; ++rounds) {
+  const int round_count = testing::scaled(1200) / 12;  // 12 placements per round
+  for (; rounds < round_count; ++rounds) {
     // 12 shapes over the floor, each shallowly in contact or just above it.
     std::vector<ShapeCase> cases;
     std::vector<Pose> locals;
@@ -145,8 +146,8 @@ TEST(Broadphase, TilesAreOneSurface) {
   std::printf("%d rounds of 12 shapes: %d shapes in contact, %d across a seam (several tiles); per-pair queries "
               "would give %d ghost normals there, the collector 0\n",
               rounds, shapes_in_contact, seam_groups, per_pair_ghosts);
-  EXPECT_GT(seam_groups, 100);       // the seams are exercised
-  EXPECT_GT(per_pair_ghosts, 10);    // and per-pair queries do show the ghosts
+  EXPECT_GT(seam_groups, rounds);         // the seams are exercised
+  EXPECT_GT(per_pair_ghosts, rounds / 10);  // and per-pair queries do show the ghosts
 }
 
 TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {

@@ -17,7 +17,7 @@
 namespace meshcontact::fcltest {
 namespace {
 
-constexpr int kPoses = 10000;
+const int kPoses = testing::scaled(10000);
 constexpr double kGhostDeg = 2.0;
 
 struct Tally {

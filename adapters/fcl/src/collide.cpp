@@ -4,6 +4,7 @@
 
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/detail/gjk_solver_libccd.h>
+#include <meshcontact/triangle.h>
 
 #include <algorithm>
 #include <cmath>
@@ -77,10 +78,12 @@ void convertContacts(const std::vector<Contact>& contacts, const Pose& to_world,
     const int triangle = static_cast<int>(c.triangle);
     const Vec3 normal = identity ? c.normal : Vec3(to_world.rotation * c.normal);
     const Vec3 point = identity ? c.point : to_world.apply(c.point);
+    // int{NONE}: a copy. emplace_back's forwarding reference would odr-use the
+    // static member, which FCL declares but never defines (clang: link error).
     if (mesh_first)
-      out.emplace_back(mesh, shape, triangle, ::fcl::Contactd::NONE, point, normal, c.depth);
+      out.emplace_back(mesh, shape, triangle, int{::fcl::Contactd::NONE}, point, normal, c.depth);
     else
-      out.emplace_back(shape, mesh, ::fcl::Contactd::NONE, triangle, point, Vec3(-normal), c.depth);
+      out.emplace_back(shape, mesh, int{::fcl::Contactd::NONE}, triangle, point, Vec3(-normal), c.depth);
   }
 }
 
@@ -100,7 +103,20 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     if (depth < -band) continue;              // wholly in front of the plane: the pipeline had it
     if (n.dot(supportPoint(shape, pose, n) - a) < -band) continue;  // wholly behind: no overlap
     if (found && !(depth > out.depth || (depth == out.depth && c.triangle < out.triangle))) continue;
-    if (confirm && !fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm)) continue;
+    if (confirm) {
+      // A sphere whose centre is in front of this triangle's plane and that
+      // overlaps the triangle gets a contact from the core's narrowphase
+      // (reference §4a: only a centre behind the plane is culled), and this
+      // fallback runs only when the pipeline gave none: no overlap here.
+      if (shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
+      // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
+      // before FCL's own test is asked: near misses straddle the planes of
+      // several candidates, and FCL's GJK costs microseconds per triangle.
+      const Vec3 q = closestPointOnTriangle(pose.translation, a, c.vertices[1], c.vertices[2]).point;
+      const double reach = shape.bound + band;
+      if ((q - pose.translation).squaredNorm() > reach * reach) continue;
+      if (!fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm)) continue;
+    }
     found = true;
     out.point = deepest;
     out.normal = n;

@@ -99,6 +99,9 @@ struct ShapeDesc {
   Vec3 box_half = Vec3::Zero();
   /// Length scale: the largest dimension (for relative tolerances).
   double size = 0.0;
+  /// Radius of a ball about the local origin holding the whole (sharp)
+  /// shape: a cheap rejection before FCL's own per-triangle test.
+  double bound = 0.0;
   // Parameters, per kind.
   double radius = 0.0;       // sphere, capsule, cylinder, cone
   double half_length = 0.0;  // capsule, cylinder, cone
@@ -116,7 +119,8 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
                          std::vector<Contact>& contacts);
 
 /// FCL's (sharp) shape's farthest point along unit `direction` (query
-/// frame).
+/// frame): the true surface, never the core's rounded one (a CylinderShape's
+/// support() is up to 0.4 of its margin inside the rims).
 Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction);
 
 /// FCL's own two-sided shape-triangle overlap test (the solver and

@@ -182,6 +182,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.radius = s.radius;
       out.box_half = Vec3::Constant(s.radius);
       out.size = 2.0 * s.radius;
+      out.bound = s.radius;
       return true;
     }
     case ::fcl::GEOM_CAPSULE: {
@@ -191,6 +192,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.half_length = 0.5 * s.lz;
       out.box_half = Vec3(s.radius, s.radius, s.radius + 0.5 * s.lz);
       out.size = 2.0 * s.radius + s.lz;
+      out.bound = s.radius + 0.5 * s.lz;
       return true;
     }
     case ::fcl::GEOM_BOX: {
@@ -199,6 +201,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.half_extents = 0.5 * s.side;
       out.box_half = out.half_extents;
       out.size = s.side.maxCoeff();
+      out.bound = out.half_extents.norm();
       return true;
     }
     case ::fcl::GEOM_CYLINDER: {
@@ -208,6 +211,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.half_length = 0.5 * s.lz;
       out.box_half = Vec3(s.radius, s.radius, 0.5 * s.lz);
       out.size = std::max(2.0 * s.radius, s.lz);
+      out.bound = std::hypot(s.radius, 0.5 * s.lz);
       return true;
     }
     case ::fcl::GEOM_CONE: {
@@ -217,6 +221,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.half_length = 0.5 * s.lz;
       out.box_half = Vec3(s.radius, s.radius, 0.5 * s.lz);
       out.size = std::max(2.0 * s.radius, s.lz);
+      out.bound = std::hypot(s.radius, 0.5 * s.lz);  // the base rim (the apex is nearer)
       return true;
     }
     case ::fcl::GEOM_ELLIPSOID: {
@@ -225,6 +230,7 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
       out.half_extents = s.radii;
       out.box_half = s.radii;
       out.size = 2.0 * s.radii.maxCoeff();
+      out.bound = s.radii.maxCoeff();
       return true;
     }
     case ::fcl::GEOM_CONVEX: {
@@ -238,10 +244,13 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
         return true;
       }
       Vec3 lo = v[0], hi = v[0];
+      double bound2 = 0.0;
       for (const auto& p : v) {
         lo = lo.cwiseMin(p);
         hi = hi.cwiseMax(p);
+        bound2 = std::max(bound2, p.squaredNorm());
       }
+      out.bound = std::sqrt(bound2);
       out.box_center = 0.5 * (lo + hi);
       out.box_half = 0.5 * (hi - lo);
       out.size = (hi - lo).norm();
@@ -286,6 +295,9 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
 }
 
 Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction) {
+  // A sphere needs no rotation (and is the hot case: collision checking and
+  // the fallback call this per candidate).
+  if (shape.kind == ShapeKind::kSphere) return pose.translation + shape.radius * direction;
   const Vec3 d = pose.rotation.transpose() * direction;  // local frame
   Vec3 local = Vec3::Zero();
   switch (shape.kind) {

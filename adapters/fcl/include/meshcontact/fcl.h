@@ -62,7 +62,11 @@
 //
 // Threads: all entry points are reentrant. The drop-in collide() keeps its
 // scratch memory in a thread_local Scratch (no allocation per query once
-// warm); the Status variants take the Scratch explicitly.
+// warm); the Status variants take the Scratch explicitly. One exception: the
+// fallback of Report::through_contacts asks FCL's own shape-triangle test,
+// and FCL's libccd solver allocates two small objects per call (measured:
+// none for the sphere, about one allocation per query on average for the
+// other shapes on random poses over a terrain).
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
@@ -224,8 +228,11 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
                Scratch& scratch, Report* report = nullptr);
 
 /// Drop-in replacement for fcl::collide (same signature, same return value:
-/// result.numContacts()). Default Options, thread_local scratch. On an error
-/// adds nothing; lastStatus() says why.
+/// result.numContacts()). Default Options, thread_local scratch (one per
+/// thread, grown to the largest query and kept until the thread exits: no
+/// allocation per query once warm). On an error adds nothing; lastStatus()
+/// says why. It walks the model's own hierarchy; on large models the Status
+/// variant with Options::cache is faster (benchmarks/fcl_bench.cpp).
 std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                     const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result);
 
