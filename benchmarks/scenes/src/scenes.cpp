@@ -200,6 +200,33 @@ SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t
   return twoSlopes(half_extent, slope_deg, cell, seed, -1.0);
 }
 
+SceneMesh bowl(double half_extent, double depth, double cell, std::uint64_t seed, double jitter) {
+  SceneMesh mesh;
+  Rng rng(seed);
+  const int n = cellsFor(2 * half_extent, cell);
+  addGridPatch(mesh, Vec3(-half_extent, -half_extent, 0), Vec3(2 * half_extent, 0, 0), Vec3(0, 2 * half_extent, 0), n,
+               n, rng, jitter);
+  const double k = depth / (half_extent * half_extent);
+  for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
+    double* p = &mesh.vertices[3 * i];
+    p[2] = k * (p[0] * p[0] + p[1] * p[1]);
+  }
+  return mesh;
+}
+
+SceneMesh terrainWithTriangles(std::size_t triangles, std::uint64_t seed) {
+  const int n = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(triangles) / 2.0))));
+  return sineTerrain(n, n, kTerrainCell, kTerrainAmplitude, kTerrainWavelength, seed);
+}
+
+double terrainHeight(double x, double y) {
+  // The same expression as sineTerrain, so vertices agree bit for bit.
+  const double k = 2.0 * M_PI / kTerrainWavelength;
+  return kTerrainAmplitude * std::sin(k * x) * std::sin(k * y);
+}
+
+SceneMesh terrain1M(std::uint64_t seed) { return terrainWithTriangles(1000000, seed); }
+
 std::vector<Scene> accuracyScenes(std::uint64_t seed) {
   std::vector<Scene> scenes;
   const double cell = 0.5;

@@ -80,6 +80,32 @@ SceneMesh vGroove(double half_extent, double slope_deg, double cell, std::uint64
 /// A convex ridge along y (the V-groove upside down), apex at x = 0, z = 0.
 SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t seed);
 
+/// A bowl, concave up: the paraboloid z = depth * (x^2 + y^2) / half_extent^2
+/// over the square [-half_extent, half_extent]^2, tessellated like flatFloor
+/// (cells of about `cell`, seeded random diagonals, in-plane jitter applied
+/// before the height, so every vertex lies exactly on the paraboloid). Front
+/// faces point up, toward the inside of the bowl. Welded. Lifting points onto
+/// this paraboloid maps the Delaunay triangulation to the lower convex hull, so
+/// an edge is concave (a valley) where the diagonal is the Delaunay one and
+/// slightly convex (a ridge) where the random diagonal is the other: both
+/// kinds of internal edge occur.
+SceneMesh bowl(double half_extent, double depth, double cell, std::uint64_t seed, double jitter = 0.2);
+
+/// The terrain used for scaling measurements: sineTerrain with square cells of
+/// kTerrainCell, amplitude kTerrainAmplitude and wavelength kTerrainWavelength
+/// (max slope ~21 degrees), n x n cells with n = round(sqrt(triangles / 2)),
+/// so about `triangles` triangles (2 n^2). Its analytic height is terrainHeight().
+inline constexpr double kTerrainCell = 0.5;
+inline constexpr double kTerrainAmplitude = 0.5;
+inline constexpr double kTerrainWavelength = 8.0;
+SceneMesh terrainWithTriangles(std::size_t triangles, std::uint64_t seed);
+/// The analytic surface the terrain's vertices lie on (between vertices the
+/// triangles differ from it by less than ~1% of the cell for these parameters).
+double terrainHeight(double x, double y);
+/// The 1M-triangle terrain: terrainWithTriangles(1000000) = 707 x 707 cells,
+/// 999,698 triangles, 353.5 m x 353.5 m.
+SceneMesh terrain1M(std::uint64_t seed);
+
 /// A named scene: one or several pieces that form one surface.
 struct Scene {
   std::string name;
