@@ -1,5 +1,7 @@
 #include "meshcontact/mesh.h"
 
+#include "scaled_edges.h"
+
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/AABB.h>
 
@@ -51,22 +53,7 @@ std::array<std::uint64_t, 3> positionBits(const double* p) {
 }  // namespace
 
 bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c) {
-  // Edges scaled to a largest component of 1: the test is then the same at
-  // every scale, with no underflow of the squared lengths. It runs on every
-  // candidate of every query, so: one reciprocal instead of six divisions
-  // (unless the reciprocal of a denormal scale overflows), squares instead
-  // of a square root.
-  const double scale = std::max((b - a).cwiseAbs().maxCoeff(), (c - a).cwiseAbs().maxCoeff());
-  if (!(scale > 0.0) || !std::isfinite(scale)) return true;
-  const double inv = 1.0 / scale;
-  const bool finite_inv = std::isfinite(inv);
-  const Vec3 ab = finite_inv ? Vec3((b - a) * inv) : Vec3((b - a) / scale);
-  const Vec3 ac = finite_inv ? Vec3((c - a) * inv) : Vec3((c - a) / scale);
-  const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (ac - ab).squaredNorm()});
-  const double twice_area2 = ab.cross(ac).squaredNorm();
-  // |ab x ac| > 1e-12 * longest^2, squared; longest2 >= 1 here, so the
-  // right side cannot underflow. !(>) so that NaN counts as degenerate.
-  return !(twice_area2 > 1e-24 * longest2 * longest2);
+  return detail::scaledEdges(a, b, c).degenerate;
 }
 
 TriangleMesh::TriangleMesh(TriangleMesh&& other) noexcept { *this = std::move(other); }

@@ -2,6 +2,7 @@
 #include "meshcontact/query.h"
 
 #include "meshcontact/triangle.h"
+#include "scaled_edges.h"
 #include "scratch.h"
 #include "validate.h"
 #include "voided_features.h"
@@ -171,22 +172,18 @@ struct SphereNarrowphase {
         return detail::PatchOutcome::kBeyondContactDistance;
       }
     }
-    if (isDegenerateTriangle(a, t.vertices[1], t.vertices[2])) {  // same test as at build time
-      p.distance = (center - a).norm();
-      return detail::PatchOutcome::kDegenerate;
-    }
-    // Work relative to vertex a, scaled to the triangle's size: the products
-    // of Ericson §5.1.5 (four lengths deep) neither overflow nor underflow at
-    // any scale the API accepts, and the result does not depend on where the
-    // triangle sits.
-    const double scale = std::max((t.vertices[1] - a).cwiseAbs().maxCoeff(), (t.vertices[2] - a).cwiseAbs().maxCoeff());
-    const Vec3 b = (t.vertices[1] - a) / scale;
-    const Vec3 c = (t.vertices[2] - a) / scale;
-    const Vec3 n = normalizedOr(b.cross(c), Vec3::Zero());
+    // Work relative to vertex a, scaled to the triangle's size (scaled_edges.h):
+    // the result does not depend on where the triangle sits. The degenerate
+    // test is the one the mesh build applies.
+    const detail::ScaledEdges edges = detail::scaledEdges(a, t.vertices[1], t.vertices[2]);
+    const Vec3 n = edges.degenerate ? Vec3::Zero() : normalizedOr(edges.ab.cross(edges.ac), Vec3::Zero());
     if (n.isZero()) {
       p.distance = (center - a).norm();
       return detail::PatchOutcome::kDegenerate;
     }
+    const double scale = edges.scale;
+    const Vec3& b = edges.ab;
+    const Vec3& c = edges.ac;
     const Vec3 rel = center - a;
     const double height = n.dot(rel);
     if (height < 0.0) {  // centre behind the plane

@@ -59,7 +59,7 @@ class VoidedSet {
   // Up to kLinear voided triangles are kept in a flat array and scanned: a
   // query typically voids 2-4 triangles, where hashing 6 keys per triangle
   // costs more than comparing a few. Past that the hash sets take over.
-  static constexpr std::size_t kLinear = 16;
+  static constexpr std::size_t kLinear = 32;
 
   void reset(std::size_t triangles) {
     linear_count_ = 0;
