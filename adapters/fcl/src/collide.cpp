@@ -115,7 +115,11 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
       const Vec3 q = closestPointOnTriangle(pose.translation, a, c.vertices[1], c.vertices[2]).point;
       const double reach = shape.bound + band;
       if ((q - pose.translation).squaredNorm() > reach * reach) continue;
-      if (!fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm)) continue;
+      // For a sphere that test is FCL's whole test (the ball is the shape),
+      // exact here, so FCL is not asked; other shapes need FCL's GJK.
+      if (shape.kind != ShapeKind::kSphere &&
+          !fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm))
+        continue;
     }
     found = true;
     out.point = deepest;
