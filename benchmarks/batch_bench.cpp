@@ -16,7 +16,7 @@
 //
 // Reproduce (Release build):
 //   build/benchmarks/batch_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
-#include "alloc_count.h"
+#include <meshcontact_scenes/allocation_counter.h>
 
 #include <meshcontact/batch.h>
 #include <meshcontact/meshcontact.h>
@@ -95,16 +95,15 @@ void BM_Batch(benchmark::State& state, bool mixed) {
   for (int warm = 0; warm < 5; ++warm)  // every worker thread has met its scratch
     if (!mc::collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out))
       state.SkipWithError("collideBatch failed");
-  const long before = alloc_count::allocations.load();
-  alloc_count::counting = true;
+  mc::heap::startCounting();
   for (auto _ : state) {
     const mc::Status s = mc::collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out);
     benchmark::DoNotOptimize(s.isOk());
     benchmark::DoNotOptimize(out.contacts.data());
   }
-  alloc_count::counting = false;
+  const long allocations = mc::heap::stopCounting();
   if (out.failed) state.SkipWithError("a query failed");
-  setCounters(state, static_cast<double>(out.contacts.size()), alloc_count::allocations.load() - before);
+  setCounters(state, static_cast<double>(out.contacts.size()), allocations);
   state.counters["threads"] = static_cast<double>(state.range(0));
 }
 
@@ -121,8 +120,7 @@ void BM_Sequential(benchmark::State& state, bool mixed) {
     if (!mc::collideOne(&instance, 1, q, settings, scratch, contacts)) state.SkipWithError("query failed");
     total += static_cast<double>(contacts.size());
   }
-  const long before = alloc_count::allocations.load();
-  alloc_count::counting = true;
+  mc::heap::startCounting();
   for (auto _ : state) {
     for (const mc::BatchQuery& q : queries) {
       const mc::Status s = mc::collideOne(&instance, 1, q, settings, scratch, contacts);
@@ -130,8 +128,7 @@ void BM_Sequential(benchmark::State& state, bool mixed) {
       benchmark::DoNotOptimize(contacts.data());
     }
   }
-  alloc_count::counting = false;
-  setCounters(state, total, alloc_count::allocations.load() - before);
+  setCounters(state, total, mc::heap::stopCounting());
 }
 
 void registerAll() {

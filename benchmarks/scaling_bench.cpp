@@ -37,7 +37,7 @@
 #include <meshcontact/meshcontact.h>
 #include <meshcontact_scenes/scenes.h>
 
-#include "alloc_count.h"
+#include <meshcontact_scenes/allocation_counter.h>
 
 #ifdef MESHCONTACT_SCALING_ODE
 #include <ode/ode.h>
@@ -129,8 +129,7 @@ void runSphereQuery(benchmark::State& state, std::size_t placements) {
     if (!mc::collideSphere(t.mesh, s, settings, scratch, contacts)) state.SkipWithError("collideSphere failed");
   std::size_t i = 0;
   double candidates = 0, total_contacts = 0;
-  const long allocations_before = alloc_count::allocations.load();
-  alloc_count::counting = true;
+  mc::heap::startCounting();
   for (auto _ : state) {
     const mc::Status s = mc::collideSphere(t.mesh, t.spheres[i], settings, scratch, contacts);
     benchmark::DoNotOptimize(s.isOk());
@@ -139,8 +138,7 @@ void runSphereQuery(benchmark::State& state, std::size_t placements) {
     total_contacts += static_cast<double>(contacts.size());
     if (++i == placements) i = 0;
   }
-  alloc_count::counting = false;
-  const double allocations = static_cast<double>(alloc_count::allocations.load() - allocations_before);
+  const double allocations = static_cast<double>(mc::heap::stopCounting());
   state.SetItemsProcessed(state.iterations());
   state.counters["triangles"] = static_cast<double>(t.mesh.triangleCount());
   state.counters["cand"] = benchmark::Counter(candidates, benchmark::Counter::kAvgIterations);
@@ -159,10 +157,10 @@ void runBuild(benchmark::State& state, Build build) {
   const scenes::SceneMesh& scene = sceneOf(state.range(0));
   double bytes = -1;
   for (auto _ : state) {
-    const std::size_t before = alloc_count::heapBytesInUse();
+    const std::size_t before = mc::heap::bytesInUse();
     auto keep = build(scene);  // the structure, alive until the end of this iteration
     benchmark::DoNotOptimize(keep.get());
-    if (bytes < 0) bytes = static_cast<double>(alloc_count::heapBytesInUse()) - static_cast<double>(before);
+    if (bytes < 0) bytes = static_cast<double>(mc::heap::bytesInUse()) - static_cast<double>(before);
     state.PauseTiming();
     keep.reset();  // freeing is not part of the build
     state.ResumeTiming();

@@ -6,60 +6,12 @@
 // this test binary (as sphere_alloc_test.cpp does).
 #include "test_support.h"
 
+#include <meshcontact_scenes/allocation_counter.h>
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
 
-namespace {
-// Counts only while `counting` is set, so gtest's own allocations outside the
-// measured loops do not interfere.
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-
-void* allocate(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(size ? size : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-
-void* allocateAligned(std::size_t size, std::align_val_t align) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = nullptr;
-  const std::size_t a = std::max(static_cast<std::size_t>(align), sizeof(void*));
-  if (posix_memalign(&p, a, size ? size : 1) != 0) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void* operator new[](std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace meshcontact {
 namespace {
@@ -102,15 +54,13 @@ QueryRun runAll(const MeshInstance& instance, const SupportShape& shape, const s
                 const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts, bool count) {
   QueryRun run;
   long failed_at = -1;
-  allocations = 0;
-  counting = count;
+  if (count) heap::startCounting();
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const Status s = collideConvex(&instance, 1, shape, poses[i], settings, scratch, contacts);
     if (!s && failed_at < 0) failed_at = static_cast<long>(i);
     run.contacts += static_cast<long>(contacts.size());
   }
-  counting = false;
-  run.allocations = allocations;
+  run.allocations = count ? heap::stopCounting() : 0;
   if (failed_at >= 0) {
     const Pose& p = poses[static_cast<std::size_t>(failed_at)];
     run.error = "query " + std::to_string(failed_at) + " at " + str(p.translation) + " failed: " +

@@ -88,7 +88,7 @@ OracleStats planarOracle(const std::vector<MeshInstance>& instances, const Suppo
   std::vector<Contact> contacts, shuffled_contacts;
   std::vector<CandidateTriangle> candidates;
   int reported = 0;
-  for (int i = 0; i < 10000; ++i) {
+  for (int i = 0; i < testing::scaled(10000); ++i) {
     Pose pose;
     pose.rotation = rng.rotation();
     const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());

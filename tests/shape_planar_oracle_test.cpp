@@ -20,7 +20,7 @@ namespace {
 using testing::str;
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr int kPlacements = 10000;  // per shape and per floor
+const int kPlacements = testing::scaled(10000);  // per shape and per floor
 
 Pose poseFrom(const Mat3& r, const Vec3& t) {
   Pose p;

@@ -4,60 +4,12 @@
 // functions of this test binary.
 #include "test_support.h"
 
+#include <meshcontact_scenes/allocation_counter.h>
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
 
-namespace {
-// Counts only while `counting` is set, so gtest's own allocations outside the
-// measured loops do not interfere.
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-
-void* allocate(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(size ? size : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-
-void* allocateAligned(std::size_t size, std::align_val_t align) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = nullptr;
-  const std::size_t a = std::max(static_cast<std::size_t>(align), sizeof(void*));
-  if (posix_memalign(&p, a, size ? size : 1) != 0) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void* operator new[](std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace meshcontact {
 namespace {
@@ -92,15 +44,13 @@ QueryRun runAll(const MeshInstance* instances, std::size_t n, const std::vector<
            const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts, bool count) {
   QueryRun run;
   long failed_at = -1;
-  allocations = 0;
-  counting = count;
+  if (count) heap::startCounting();
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     const Status s = collideSphere(instances, n, spheres[i], settings, scratch, contacts);
     if (!s && failed_at < 0) failed_at = static_cast<long>(i);
     run.contacts += static_cast<long>(contacts.size());
   }
-  counting = false;
-  run.allocations = allocations;
+  run.allocations = count ? heap::stopCounting() : 0;
   if (failed_at >= 0) {
     const Sphere& sp = spheres[static_cast<std::size_t>(failed_at)];
     run.error = "query " + std::to_string(failed_at) + " at " + str(sp.center) + " failed: " +

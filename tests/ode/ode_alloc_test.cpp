@@ -5,45 +5,13 @@
 // allocation functions of this test binary (as tests/sphere_alloc_test.cpp).
 #include "ode_sim.h"
 
+#include <meshcontact_scenes/allocation_counter.h>
+
 #include <atomic>
 #include <cstdlib>
 #include <memory>
 #include <new>
 
-namespace {
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-
-void* allocate(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(size ? size : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
 
 namespace meshcontact::odetest {
 namespace {
@@ -111,15 +79,14 @@ long allocationsInSecondPass(dGeomID shape) {
   };
   pass();  // warm-up: the per-thread context grows to the largest query
   const long warm = contacts;
-  allocations = 0;
-  counting = true;
+  heap::startCounting();
   pass();
-  counting = false;
+  const long allocations = heap::stopCounting();
   EXPECT_EQ(contacts, 2 * warm) << "the second pass must see the same contacts";
   EXPECT_GT(warm, 100);
   EXPECT_EQ(ode::statistics().errors, 0u) << ode::lastError();
   dGeomDestroy(shape);
-  return allocations.load();
+  return allocations;
 }
 
 TEST(OdeAllocations, SphereCollisionsDoNotAllocate) {

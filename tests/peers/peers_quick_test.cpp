@@ -10,62 +10,13 @@
 
 #include <meshcontact_peers/evaluate.h>
 #include <meshcontact_peers/peers.h>
+#include <meshcontact_scenes/allocation_counter.h>
 #include <meshcontact_scenes/oracle.h>
 
 #include <atomic>
 #include <cstdlib>
 #include <new>
 
-namespace {
-// Counts only while `counting` is set, so gtest's own allocations outside the
-// measured loops do not interfere.
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-
-void* allocate(std::size_t size) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(size ? size : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-
-void* allocateAligned(std::size_t size, std::align_val_t align) {
-  if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-  void* p = nullptr;
-  const std::size_t a = std::max(static_cast<std::size_t>(align), sizeof(void*));
-  if (posix_memalign(&p, a, size ? size : 1) != 0) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept {
-  try {
-    return allocate(size);
-  } catch (...) {
-    return nullptr;
-  }
-}
-void* operator new(std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void* operator new[](std::size_t size, std::align_val_t align) { return allocateAligned(size, align); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace meshcontact {
 namespace {
@@ -107,17 +58,14 @@ TEST_P(PeersQuickTest, NoGhostNoMissNoAllocation) {
   // scratch and the contact vector to the largest query.
   std::vector<Contact> contacts;
   for (const auto& p : placements) ASSERT_TRUE(method->collideSphere(p, contacts).isOk());
-  allocations = 0;
-  counting = true;
+  heap::startCounting();
   int* volatile probe = new int(1);  // the counter itself works
   delete probe;
-  counting = false;
-  ASSERT_EQ(allocations.load(), 1);
-  allocations = 0;
-  counting = true;
+  ASSERT_EQ(heap::stopCounting(), 1);
+  heap::startCounting();
   for (const auto& p : placements) (void)method->collideSphere(p, contacts);
-  counting = false;
-  EXPECT_EQ(allocations.load(), 0) << describe(c) << ": heap allocations over " << placements.size()
+  const long allocations = heap::stopCounting();
+  EXPECT_EQ(allocations, 0) << describe(c) << ": heap allocations over " << placements.size()
                                    << " warm queries";
 }
 
