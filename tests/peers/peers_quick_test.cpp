@@ -69,15 +69,14 @@ TEST_P(PeersQuickTest, NoGhostNoMissNoAllocation) {
                                    << " warm queries";
 }
 
-// Index keys see the seams of separate tile meshes as boundaries (by design:
-// tiles need position keys, which KeyMode::kAuto picks for several meshes),
-// so the tiles scene runs with position keys only.
+// meshcontact = KeyMode::kAuto (index keys on one welded mesh, position keys
+// on the separate tiles), and position keys forced everywhere.
 INSTANTIATE_TEST_SUITE_P(Quick, PeersQuickTest,
-                         ::testing::Values(Case{"flat", "meshcontact-index"}, Case{"flat", "meshcontact-position"},
-                                           Case{"tiles", "meshcontact-position"},
-                                           Case{"cliff", "meshcontact-index"}, Case{"cliff", "meshcontact-position"},
-                                           Case{"ridge", "meshcontact-index"}, Case{"ridge", "meshcontact-position"},
-                                           Case{"sine", "meshcontact-index"}, Case{"sine", "meshcontact-position"}),
+                         ::testing::Values(Case{"flat", "meshcontact"}, Case{"flat", "meshcontact-position"},
+                                           Case{"tiles", "meshcontact"}, Case{"tiles", "meshcontact-position"},
+                                           Case{"cliff", "meshcontact"}, Case{"cliff", "meshcontact-position"},
+                                           Case{"ridge", "meshcontact"}, Case{"ridge", "meshcontact-position"},
+                                           Case{"sine", "meshcontact"}, Case{"sine", "meshcontact-position"}),
                          [](const ::testing::TestParamInfo<Case>& info) {
                            std::string n = std::string(info.param.scene) + "_" + info.param.method;
                            for (char& ch : n)

@@ -11,7 +11,7 @@ namespace {
 
 class CoreMethod : public Method {
  public:
-  enum class Kind { kIndexKeys, kPositionKeys, kNaiveClosest, kNaiveTriangleNormal };
+  enum class Kind { kAutoKeys, kPositionKeys, kNaiveClosest, kNaiveTriangleNormal };
 
   CoreMethod(Kind kind, const CompareScene& scene) : kind_(kind), scene_(scene) {}
 
@@ -23,8 +23,10 @@ class CoreMethod : public Method {
       instances_.push_back({&meshes_[i], Pose::identity()});
     }
     switch (kind_) {
-      case Kind::kIndexKeys:
-        settings_.key_mode = KeyMode::kVertexIndex;
+      case Kind::kAutoKeys:
+        // What a user gets by default: index keys on one welded mesh,
+        // position keys on several meshes or duplicated vertices.
+        settings_.key_mode = KeyMode::kAuto;
         break;
       case Kind::kPositionKeys:
         settings_.key_mode = KeyMode::kVertexPosition;
@@ -41,7 +43,7 @@ class CoreMethod : public Method {
 
   std::string name() const override {
     switch (kind_) {
-      case Kind::kIndexKeys: return "meshcontact-index";
+      case Kind::kAutoKeys: return "meshcontact";
       case Kind::kPositionKeys: return "meshcontact-position";
       case Kind::kNaiveClosest: return "naive-closest";
       case Kind::kNaiveTriangleNormal: return "naive-trinormal";
@@ -109,7 +111,7 @@ class CoreMethod : public Method {
 
 Status makeCoreMethod(const std::string& name, const CompareScene& scene, std::unique_ptr<Method>& out) {
   CoreMethod::Kind kind;
-  if (name == "meshcontact-index") kind = CoreMethod::Kind::kIndexKeys;
+  if (name == "meshcontact") kind = CoreMethod::Kind::kAutoKeys;
   else if (name == "meshcontact-position") kind = CoreMethod::Kind::kPositionKeys;
   else if (name == "naive-closest") kind = CoreMethod::Kind::kNaiveClosest;
   else if (name == "naive-trinormal") kind = CoreMethod::Kind::kNaiveTriangleNormal;

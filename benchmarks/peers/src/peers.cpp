@@ -9,7 +9,7 @@
 namespace meshcontact::peers {
 
 std::vector<std::string> methodNames() {
-  std::vector<std::string> names = {"meshcontact-index", "meshcontact-position", "naive-closest", "naive-trinormal",
+  std::vector<std::string> names = {"meshcontact", "meshcontact-position", "naive-closest", "naive-trinormal",
                                     "ode", "fcl"};
 #ifdef MESHCONTACT_PEERS_BULLET
   names.push_back("bullet");

@@ -110,7 +110,7 @@ class Method {
   long dropped_separated_ = 0;
 };
 
-/// Every method compiled in, in report order: meshcontact-index,
+/// Every method compiled in, in report order: meshcontact (KeyMode::kAuto),
 /// meshcontact-position, naive-closest, naive-trinormal, ode, fcl, and (when
 /// Bullet was found) bullet, bullet-iedge.
 std::vector<std::string> methodNames();
