@@ -144,7 +144,8 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
 // --- Forwarding ----------------------------------------------------------------
 
 void expectForwarded(const ::fcl::CollisionObjectd& o1, const ::fcl::CollisionObjectd& o2,
-                     const ::fcl::CollisionRequestd& request, const char* what) {
+                     const ::fcl::CollisionRequestd& request, const char* what,
+                     bool fcl_keeps_geometry = true) {
   ::fcl::CollisionResultd ours, theirs;
   fcl::Scratch scratch;
   fcl::Report report;
@@ -152,7 +153,7 @@ void expectForwarded(const ::fcl::CollisionObjectd& o1, const ::fcl::CollisionOb
   ASSERT_TRUE(s.isOk()) << what << ": " << s.message();
   EXPECT_EQ(report.route, fcl::Report::Route::kForwarded) << what;
   ::fcl::collide(&o1, &o2, request, theirs);
-  EXPECT_EQ(compareContacts(contactsOf(ours), contactsOf(theirs), 0.0), "") << what;
+  EXPECT_EQ(compareContacts(contactsOf(ours), contactsOf(theirs), 0.0, fcl_keeps_geometry), "") << what;
   EXPECT_EQ(report.added, theirs.numContacts()) << what;
 }
 
@@ -175,7 +176,9 @@ TEST(DropIn, ForwardsEveryOtherPair) {
   expectForwarded(mesh_object, other_mesh, contactsRequest(), "mesh vs mesh");
   expectForwarded(mesh_object, plane, contactsRequest(), "mesh vs plane");
   expectForwarded(halfspace, mesh_object, contactsRequest(), "halfspace vs mesh");
-  expectForwarded(kdop_object, sphere, contactsRequest(), "KDOP18 model vs sphere");
+  // FCL's contacts point at a deleted copy of the KDOP model (see
+  // compareContacts): everything but o1/o2 must be equal.
+  expectForwarded(kdop_object, sphere, contactsRequest(), "KDOP18 model vs sphere", false);
   ::fcl::CollisionRequestd cost = contactsRequest();
   cost.enable_cost = true;
   cost.num_max_cost_sources = 5;

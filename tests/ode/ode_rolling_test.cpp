@@ -250,11 +250,17 @@ TEST(OdeRolling, BoxContactsEqualThePlanes) {
           if (error > worst) worst = error, worst_step = i;
         }
       }
-      // The plane geom is made in the session the slide opens.
+      // The plane geom is made in the session the slide opens, and destroyed
+      // at its last step, before the session closes ODE.
       if (plane == nullptr) plane = dCreatePlane(nullptr, 0, 0, 1, 0);
       expected_count = dCollide(dBodyGetFirstGeom(body), plane, 8, expected, sizeof(dContactGeom));
+      if (i + 1 == kLength.run) {
+        dGeomDestroy(plane);
+        plane = nullptr;
+      }
     };
     odetest::slideBox(Mode::kOverride, g.make(), kLength, nullptr, nullptr, each);
+    EXPECT_EQ(plane, nullptr) << "the plane geom outlived its session";
     std::printf("| box sliding, %s: override's contacts vs the plane's at the same pose | %d steps | worst "
                 "difference %.3g m (step %d) |\n",
                 g.name, steps, worst, worst_step);
