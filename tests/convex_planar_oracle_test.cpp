@@ -6,6 +6,10 @@
 // the result is identical under any permutation of the candidate triangles.
 // Counts are printed per penetration band (separated, < margin: the core
 // clear of the floor, >= margin: the deep path).
+// Every oracle is repeated with the whole scene (floors, shape, placements,
+// contact distance, depth tolerance) scaled by 1e-3 and 1e3 and moved 1e5
+// away from the origin, on a quarter of the placements: the core's
+// tolerances are relative, so nothing may change.
 #include "test_support.h"
 
 #include <meshcontact/convex.h>
@@ -18,7 +22,11 @@
 namespace meshcontact {
 namespace {
 
+using testing::Frame;
 using testing::str;
+
+const int kPlacements = testing::scaled(10000);      // per shape and floor in the unit frame
+const int kFramePlacements = testing::scaled(2500);  // per shape and floor in each other frame
 
 ConvexHull hull32(std::uint64_t seed, double radius) {
   scenes::Rng rng(seed);
@@ -77,9 +85,12 @@ std::string describe(const Pose& pose) {
 
 // `instances`: the floor (one welded mesh, or tiles). Shapes are placed over
 // [0.8, 3.2]^2 of a 4 x 4 floor, random orientation, lowest point from
-// 0.08 * size below the plane to the contact distance above it.
+// 0.08 * size below the plane to the contact distance above it. In another
+// frame the floor, the shape, `size` and the lowest point's range come
+// already scaled; the floor plane is z = frame.offset.
 OracleStats planarOracle(const std::vector<MeshInstance>& instances, const SupportShape& shape, double size,
-                         std::uint64_t seed, const char* name, double lowest_min, double lowest_max) {
+                         std::uint64_t seed, const char* name, double lowest_min, double lowest_max,
+                         const Frame& frame, int placements) {
   QueryScratch scratch;
   QuerySettings settings;
   settings.contact_distance = 0.02 * size;
@@ -88,12 +99,13 @@ OracleStats planarOracle(const std::vector<MeshInstance>& instances, const Suppo
   std::vector<Contact> contacts, shuffled_contacts;
   std::vector<CandidateTriangle> candidates;
   int reported = 0;
-  for (int i = 0; i < testing::scaled(10000); ++i) {
+  for (int i = 0; i < placements; ++i) {
     Pose pose;
     pose.rotation = rng.rotation();
     const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
     const double bottom = rng.uniform(lowest_min, lowest_max);
-    pose.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), bottom - low.z());
+    const Vec3 spot = frame.point(Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), 0.0));  // on the plane
+    pose.translation = Vec3(spot.x(), spot.y(), spot.z() + (bottom - low.z()));
     ++st.placements;
     Band& band = bottom >= 0.0 ? st.separated : (-bottom < shape.margin() ? st.shallow : st.deep);
     ++band.placements;
@@ -185,15 +197,20 @@ OracleStats planarOracle(const std::vector<MeshInstance>& instances, const Suppo
 
 // Lowest point from `lowest_min` to `lowest_max` above the plane (default:
 // 0.08 * size below it to the contact distance, 0.02 * size, above it).
+// In another `frame`, `shape`, `size` and the lowest point's range are
+// already scaled (the caller builds the scaled shape); the floors are moved
+// here.
 void runShape(const SupportShape& shape, double size, const char* name, std::uint64_t seed,
-              double lowest_min = std::nan(""), double lowest_max = std::nan("")) {
+              double lowest_min = std::nan(""), double lowest_max = std::nan(""),
+              const Frame& frame = testing::kFrames[0], int placements = kPlacements) {
   if (std::isnan(lowest_min)) lowest_min = -0.08 * size;
   if (std::isnan(lowest_max)) lowest_max = 0.02 * size;
+  const std::string label = frame.identity() ? std::string(name) : std::string(name) + " [" + frame.name + " frame]";
   // Welded floor: 8 x 8 cells of 0.5, random diagonals, jittered interior vertices.
-  TriangleMesh floor = testing::buildMesh(scenes::flatFloor(8, 8, 0.5, seed));
+  TriangleMesh floor = testing::buildMesh(testing::transformed(scenes::flatFloor(8, 8, 0.5, seed), frame));
   const std::vector<MeshInstance> one{{&floor, Pose::identity()}};
-  const OracleStats a =
-      planarOracle(one, shape, size, seed + 1, (std::string(name) + " flat").c_str(), lowest_min, lowest_max);
+  const OracleStats a = planarOracle(one, shape, size, seed + 1, (label + " flat").c_str(), lowest_min, lowest_max,
+                                     frame, placements);
   EXPECT_EQ(a.tilted, 0);
   EXPECT_EQ(a.missed, 0);
   EXPECT_EQ(a.wrong_depth, 0);
@@ -201,11 +218,11 @@ void runShape(const SupportShape& shape, double size, const char* name, std::uin
   // The same kind of floor as 4 x 4 separate tiles queried together.
   const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(4, 4, 2, 0.5, seed + 2);
   std::vector<TriangleMesh> meshes;
-  for (const scenes::SceneMesh& t : tiles) meshes.push_back(testing::buildMesh(t));
+  for (const scenes::SceneMesh& t : tiles) meshes.push_back(testing::buildMesh(testing::transformed(t, frame)));
   std::vector<MeshInstance> instances;
   for (const TriangleMesh& m : meshes) instances.push_back({&m, Pose::identity()});
-  const OracleStats b =
-      planarOracle(instances, shape, size, seed + 3, (std::string(name) + " tiles").c_str(), lowest_min, lowest_max);
+  const OracleStats b = planarOracle(instances, shape, size, seed + 3, (label + " tiles").c_str(), lowest_min,
+                                     lowest_max, frame, placements);
   EXPECT_EQ(b.tilted, 0);
   EXPECT_EQ(b.missed, 0);
   EXPECT_EQ(b.wrong_depth, 0);
@@ -255,6 +272,55 @@ TEST(ConvexPlanarOracle, UserEllipsoid) {
   const Ellipsoid plain(Vec3(0.45, 0.3, 0.2), 0.0);
   runShape(plain, 0.9, "ellipsoid margin 0", 600);
 }
+
+// --- The same oracles in the milli, kilo and far frames -----------------------
+
+// Same shapes (every dimension scaled, the automatic margins follow) and
+// seeds as the unit tests above: the milli and kilo frames replay the first
+// quarter of the unit placements, scaled. In the far frame the random
+// sequence soon parts from the unit one: the order-independence shuffle draws
+// once per candidate, and the midphase's outward-rounded float bounds (a
+// float's spacing at 1e5 is ~8e-3) gather a few more candidates there.
+class ConvexPlanarOracleInFrame : public ::testing::TestWithParam<int> {
+ protected:
+  const Frame& frame() const { return testing::kFrames[GetParam()]; }
+  double s() const { return frame().scale; }
+};
+
+TEST_P(ConvexPlanarOracleInFrame, Cylinder) {
+  const CylinderShape cylinder(Cylinder{0.3 * s(), 0.4 * s()});
+  runShape(cylinder, 2 * std::hypot(0.3, 0.4) * s(), "cylinder", 100, std::nan(""), std::nan(""), frame(),
+           kFramePlacements);
+}
+
+TEST_P(ConvexPlanarOracleInFrame, Hull32) {
+  const ConvexHull hull = hull32(17, 0.5 * s());
+  runShape(hull, 1.0 * s(), "hull32", 200, std::nan(""), std::nan(""), frame(), kFramePlacements);
+}
+
+TEST_P(ConvexPlanarOracleInFrame, CylinderResting) {
+  const CylinderShape cylinder(Cylinder{0.3 * s(), 0.4 * s()});
+  runShape(cylinder, 2 * std::hypot(0.3, 0.4) * s(), "cylinder resting", 300, -cylinder.margin(), 0.0, frame(),
+           kFramePlacements);
+}
+
+TEST_P(ConvexPlanarOracleInFrame, Hull32Resting) {
+  const ConvexHull hull = hull32(17, 0.5 * s());
+  runShape(hull, 1.0 * s(), "hull32 resting", 400, -hull.margin(), 0.0, frame(), kFramePlacements);
+}
+
+TEST_P(ConvexPlanarOracleInFrame, UserEllipsoid) {
+  const Ellipsoid rounded(Vec3(0.45, 0.3, 0.2) * s(), 0.05);
+  runShape(rounded, 0.9 * s(), "ellipsoid", 500, std::nan(""), std::nan(""), frame(), kFramePlacements);
+  const Ellipsoid plain(Vec3(0.45, 0.3, 0.2) * s(), 0.0);
+  runShape(plain, 0.9 * s(), "ellipsoid margin 0", 600, std::nan(""), std::nan(""), frame(), kFramePlacements);
+}
+
+// kFrames[1..3]: milli, kilo, far (the unit frame is the plain tests above).
+INSTANTIATE_TEST_SUITE_P(Frames, ConvexPlanarOracleInFrame, ::testing::Range(1, 4),
+                         [](const ::testing::TestParamInfo<int>& info) {
+                           return std::string(testing::kFrames[info.param].name);
+                         });
 
 }  // namespace
 }  // namespace meshcontact

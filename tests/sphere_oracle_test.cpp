@@ -10,6 +10,7 @@
 
 #include <cstdio>
 #include <tuple>
+#include <utility>
 
 namespace meshcontact {
 namespace {
@@ -25,20 +26,13 @@ struct Tally {
 
 // The whole scene (meshes, placements, radii, contact distances) is scaled
 // and moved: tolerances are relative, so the oracle must still find nothing.
-struct Frame {
-  const char* name;
-  double scale;
-  double offset;
-};
-constexpr Frame kFrames[] = {{"unit", 1.0, 0.0}, {"milli", 1e-3, 0.0}, {"kilo", 1e3, 0.0}, {"far", 1.0, 1e5}};
+using testing::Frame;
+using testing::kFrames;
 
 scenes::Scene transformed(scenes::Scene scene, const Frame& frame) {
-  const Vec3 offset = Vec3::Constant(frame.offset);
-  for (scenes::SceneMesh& piece : scene.pieces)
-    for (std::size_t v = 0; v < piece.vertexCount(); ++v)
-      for (int k = 0; k < 3; ++k) piece.vertices[3 * v + k] = piece.vertices[3 * v + k] * frame.scale + offset[k];
-  scene.lo = scene.lo * frame.scale + offset;
-  scene.hi = scene.hi * frame.scale + offset;
+  for (scenes::SceneMesh& piece : scene.pieces) piece = testing::transformed(std::move(piece), frame);
+  scene.lo = frame.point(scene.lo);
+  scene.hi = frame.point(scene.hi);
   return scene;
 }
 

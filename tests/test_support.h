@@ -23,6 +23,33 @@ inline int scaled(int placements) {
   return std::max(100, static_cast<int>(placements * scale));
 }
 
+/// A frame the whole scene is moved into for the scale-robustness runs of
+/// the oracles: every length multiplied by `scale`, then every point moved
+/// by `offset` along (1, 1, 1). The core's tolerances are relative, so an
+/// oracle must find exactly as little in every frame as in the unit one; a
+/// test's own absolute tolerances (contact distance, depth checks) go
+/// through length(). Angles are scale-free and stay as they are.
+struct Frame {
+  const char* name;
+  double scale;
+  double offset;
+
+  bool identity() const { return scale == 1.0 && offset == 0.0; }
+  double length(double l) const { return l * scale; }
+  Vec3 point(const Vec3& p) const { return p * scale + Vec3::Constant(offset); }
+};
+/// The unit frame first, then millimetre and kilometre scale, then 1e5 away
+/// from the origin (where a double's spacing is ~1.5e-11).
+inline constexpr Frame kFrames[] = {{"unit", 1.0, 0.0}, {"milli", 1e-3, 0.0}, {"kilo", 1e3, 0.0}, {"far", 1.0, 1e5}};
+
+/// `mesh` moved into `frame` (returned bit-for-bit unchanged in the unit frame).
+inline scenes::SceneMesh transformed(scenes::SceneMesh mesh, const Frame& frame) {
+  if (frame.identity()) return mesh;
+  for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+    for (int k = 0; k < 3; ++k) mesh.vertices[3 * v + k] = mesh.vertices[3 * v + k] * frame.scale + frame.offset;
+  return mesh;
+}
+
 inline std::string str(const Vec3& v) {
   std::ostringstream s;
   s.precision(17);
