@@ -22,14 +22,28 @@ namespace {
 
 // Float bounds that contain the double value: round toward -inf for a lower
 // bound, toward +inf for an upper one.
+// The next float toward -inf / +inf from a finite f or +-inf, without a
+// libm call (the query box is rounded once per mesh instance per query:
+// nextafterf was a measurable part of a query on 16 tiles).
+float nextFloatDown(float f) {
+  if (f == 0.0f) return -std::numeric_limits<float>::denorm_min();
+  if (f == -std::numeric_limits<float>::infinity()) return f;
+  std::uint32_t b;
+  std::memcpy(&b, &f, sizeof b);
+  b = f > 0.0f ? b - 1 : b + 1;  // magnitude down for positives, up for negatives
+  std::memcpy(&f, &b, sizeof f);
+  return f;
+}
+float nextFloatUp(float f) { return -nextFloatDown(-f); }
+
 float floatBelow(double x) {
   float f = static_cast<float>(x);
-  if (static_cast<double>(f) > x) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  if (static_cast<double>(f) > x) f = nextFloatDown(f);
   return f;
 }
 float floatAbove(double x) {
   float f = static_cast<float>(x);
-  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  if (static_cast<double>(f) < x) f = nextFloatUp(f);
   return f;
 }
 

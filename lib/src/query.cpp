@@ -1,6 +1,7 @@
 // The midphase stage (gatherCandidates) and the sphere narrowphase.
 #include "meshcontact/query.h"
 
+#include "closest_point.h"
 #include "meshcontact/triangle.h"
 #include "scaled_edges.h"
 #include "scratch.h"
@@ -52,9 +53,6 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
   for (std::size_t m = 0; m < count; ++m) {
     if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt())
       return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
-    // The name is built only on failure: no string (and no allocation) per query.
-    Status s = detail::checkPose(instances[m].pose, "mesh instance");
-    if (!s) return {s.code(), s.message() + " (instance " + std::to_string(m) + ")"};
   }
   const KeyMode mode = resolveKeyMode(instances, count, key_mode);
   QueryScratch::Impl& sc = scratch.impl();
@@ -66,6 +64,14 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     const TriangleMesh& mesh = *instances[m].mesh;
     const Pose& pose = instances[m].pose;
     const bool identity = pose.isIdentity();
+    if (!identity) {  // the identity is valid: no matrix check
+      // The name is built only on failure: no string (and no allocation) per query.
+      Status s = detail::checkPose(pose, "mesh instance");
+      if (!s) {
+        out.clear();
+        return {s.code(), s.message() + " (instance " + std::to_string(m) + ")"};
+      }
+    }
     // The query box in the mesh frame: the bounds of the rotated box.
     Vec3 local_lo = lo, local_hi = hi;
     if (!identity) {
@@ -150,10 +156,14 @@ struct SphereNarrowphase {
   Vec3 center;
   double radius;
   double inflated;  // radius + contact distance
+  /// The candidates come from TriangleMesh::querySphere, which has already
+  /// tested each triangle's box (rounded outward) against this sphere: the
+  /// box reject below would pass all of them again.
+  bool boxes_tested = false;
 
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     const Vec3& a = t.vertices[0];
-    {
+    if (!boxes_tested) {
       // Cheap reject (Ericson 5.2.5, sphere vs AABB): the midphase's box test
       // passes triangles whose box only overlaps a corner of the sphere's box
       // (half the candidates on a flat floor). Squared distance from the
@@ -176,14 +186,14 @@ struct SphereNarrowphase {
     // the result does not depend on where the triangle sits. The degenerate
     // test is the one the mesh build applies.
     const detail::ScaledEdges edges = detail::scaledEdges(a, t.vertices[1], t.vertices[2]);
-    const Vec3 n = edges.degenerate ? Vec3::Zero() : normalizedOr(edges.ab.cross(edges.ac), Vec3::Zero());
-    if (n.isZero()) {
+    if (edges.degenerate) {
       p.distance = (center - a).norm();
       return detail::PatchOutcome::kDegenerate;
     }
-    const double scale = edges.scale;
-    const Vec3& b = edges.ab;
-    const Vec3& c = edges.ac;
+    // Not degenerate: |ab x ac|^2 > 1e-24 * longest^4 >= 1e-24, and the
+    // scaled components are below 2, so the length is normal and finite.
+    const Vec3 cross = edges.ab.cross(edges.ac);
+    const Vec3 n = cross / std::sqrt(cross.squaredNorm());
     const Vec3 rel = center - a;
     const double height = n.dot(rel);
     if (height < 0.0) {  // centre behind the plane
@@ -194,19 +204,23 @@ struct SphereNarrowphase {
       p.distance = height;
       return detail::PatchOutcome::kBeyondContactDistance;
     }
-    const ClosestPoint cp = closestPointOnTriangle(rel / scale, Vec3::Zero(), b, c);
+    const Vec3 rel_scaled = rel * edges.inv_scale;  // exact
+    const ClosestPoint cp = detail::closestPointInline(rel_scaled, Vec3::Zero(), edges.ab, edges.ac);
     p.feature = cp.feature;
     double distance;
     if (cp.feature.type == FeatureType::kFace) {
       distance = height;  // exact for the face region, and never NaN
       p.normal = n;
     } else {
-      const Vec3 d = rel - cp.point * scale;
-      distance = d.norm();
+      // In the triangle's scale, where |d| neither overflows nor underflows
+      // for any sphere within reach of a non-degenerate triangle.
+      const Vec3 d = rel_scaled - cp.point;
+      const double length = d.norm();
+      distance = length * edges.scale;
       // §4b: if the centre is on the feature, fall back to the face normal.
       // "On" is relative to the scene's scale, not an absolute epsilon.
-      const double tiny = 1e-12 * std::max(radius, scale);
-      p.normal = distance > tiny ? normalizedOr(d, n) : n;
+      const double tiny = 1e-12 * std::max(radius, edges.scale);
+      p.normal = distance > tiny ? Vec3(d / length) : n;
     }
     p.distance = distance;
     if (!std::isfinite(distance)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
@@ -220,6 +234,17 @@ struct SphereNarrowphase {
 
 }  // namespace
 
+namespace {
+
+void sphereContacts(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count, bool boxes_tested,
+                    const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  const SphereNarrowphase narrowphase{sphere.center, sphere.radius, sphere.radius + settings.contact_distance,
+                                      boxes_tested};
+  detail::generateContacts(candidates, count, narrowphase, settings, scratch.impl().filter, contacts);
+}
+
+}  // namespace
+
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
                                const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts) {
@@ -229,8 +254,7 @@ Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* ca
   if (!s) return s;
   s = detail::checkContactDistance(settings.contact_distance);
   if (!s) return s;
-  const SphereNarrowphase narrowphase{sphere.center, sphere.radius, sphere.radius + settings.contact_distance};
-  detail::generateContacts(candidates, count, narrowphase, settings, scratch.impl().filter, contacts);
+  sphereContacts(sphere, candidates, count, false, settings, scratch, contacts);
   return Status::ok();
 }
 
@@ -249,7 +273,8 @@ Status collideSphere(const MeshInstance* instances, std::size_t count, const Sph
   s = gather(instances, count, sphere.center - extent, sphere.center + extent, &bound, settings.key_mode, scratch,
              sc.candidates);
   if (!s) return s;
-  return collideSphereCandidates(sphere, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  sphereContacts(sphere, sc.candidates.data(), sc.candidates.size(), true, settings, scratch, contacts);
+  return Status::ok();
 }
 
 Status collideSphere(const TriangleMesh& mesh, const Sphere& sphere, const QuerySettings& settings,

@@ -1,20 +1,26 @@
 #pragma once
-// A triangle's edges from its first vertex, scaled so that their largest
-// component is 1: products of up to four of them (Ericson 5.1.5) then
-// neither overflow nor underflow at any scale the API accepts, and tests on
-// them are the same at every scale. Shared by the degenerate-triangle test
-// (mesh build and per-candidate checks) and the sphere narrowphase, which
-// would otherwise compute the same scaled edges twice per candidate.
+// A triangle's edges from its first vertex, scaled by a power of two so that
+// their largest component lies in [1, 2): products of up to four of them
+// (Ericson 5.1.5) then neither overflow nor underflow at any scale the API
+// accepts, and tests on them are the same at every scale. A power of two
+// makes the scaling exact (no rounding: the scaled computation gives the
+// unscaled one's bits times 2^-k) and costs a multiplication, not a division.
+// Shared by the degenerate-triangle test (mesh build and per-candidate
+// checks) and the sphere narrowphase, which would otherwise compute the same
+// scaled edges twice per candidate.
 
 #include "meshcontact/geometry.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 namespace meshcontact::detail {
 
 struct ScaledEdges {
-  double scale = 0.0;  // largest |component| of b - a and c - a
+  double scale = 0.0;      // 2^k with scale <= largest |component| of b - a, c - a < 2 scale
+  double inv_scale = 0.0;  // 1 / scale, exact
   Vec3 ab = Vec3::Zero();  // (b - a) / scale
   Vec3 ac = Vec3::Zero();  // (c - a) / scale
   /// |ab x ac| <= 1e-12 * (longest edge)^2, or a zero / non-finite scale:
@@ -23,12 +29,27 @@ struct ScaledEdges {
   bool degenerate = true;
 };
 
+/// The power of two 2^k <= m < 2^(k+1) and its inverse, for a positive finite
+/// normal m whose inverse power is normal too; false otherwise (zero, NaN,
+/// Inf, subnormal, or m >= 2^1022: beyond the API's 1e50 range anyway).
+inline bool powerOfTwoBelow(double m, double& scale, double& inv_scale) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &m, sizeof bits);
+  const std::uint64_t biased = (bits >> 52) & 0x7ff;  // sign ignored: m > 0 is checked by the caller
+  if (biased == 0 || biased >= 2045) return false;
+  const std::uint64_t s = biased << 52, inv = (2046 - biased) << 52;  // 2^(e-1023), 2^(1023-e)
+  std::memcpy(&scale, &s, sizeof scale);
+  std::memcpy(&inv_scale, &inv, sizeof inv_scale);
+  return true;
+}
+
 inline ScaledEdges scaledEdges(const Vec3& a, const Vec3& b, const Vec3& c) {
   ScaledEdges e;
-  e.scale = std::max((b - a).cwiseAbs().maxCoeff(), (c - a).cwiseAbs().maxCoeff());
-  if (!(e.scale > 0.0) || !std::isfinite(e.scale)) return e;
-  e.ab = (b - a) / e.scale;
-  e.ac = (c - a) / e.scale;
+  const Vec3 ab = b - a, ac = c - a;
+  const double m = std::max(ab.cwiseAbs().maxCoeff(), ac.cwiseAbs().maxCoeff());
+  if (!(m > 0.0) || !powerOfTwoBelow(m, e.scale, e.inv_scale)) return e;
+  e.ab = ab * e.inv_scale;
+  e.ac = ac * e.inv_scale;
   const double longest2 = std::max({e.ab.squaredNorm(), e.ac.squaredNorm(), (e.ac - e.ab).squaredNorm()});
   e.degenerate = !(e.ab.cross(e.ac).squaredNorm() > 1e-24 * longest2 * longest2);
   return e;

@@ -39,8 +39,9 @@ class StampedMap {
     mask_ = slots_.size() - 1;
   }
 
-  /// Inserts key -> value if absent. Returns the stored value.
-  Value insert(const Key& key, Value value) {
+  /// Inserts key -> value if absent. Returns the stored value (valid until
+  /// the next insert).
+  Value& insert(const Key& key, Value value) {
     if (2 * (size_ + 1) > slots_.size()) grow();
     for (std::size_t i = Hash{}(key) & mask_;; i = (i + 1) & mask_) {
       Slot& s = slots_[i];
@@ -49,20 +50,23 @@ class StampedMap {
         s.value = value;
         s.stamp = stamp_;
         ++size_;
-        return value;
+        return s.value;
       }
       if (s.key == key) return s.value;
     }
   }
 
-  bool contains(const Key& key) const {
-    if (slots_.empty()) return false;
+  /// The value stored for key, or null.
+  const Value* find(const Key& key) const {
+    if (slots_.empty()) return nullptr;
     for (std::size_t i = Hash{}(key) & mask_;; i = (i + 1) & mask_) {
       const Slot& s = slots_[i];
-      if (s.stamp != stamp_) return false;
-      if (s.key == key) return true;
+      if (s.stamp != stamp_) return nullptr;
+      if (s.key == key) return &s.value;
     }
   }
+
+  bool contains(const Key& key) const { return find(key) != nullptr; }
 
   std::size_t size() const { return size_; }
 
@@ -95,14 +99,6 @@ struct U64Hash {
   std::size_t operator()(std::uint64_t k) const { return static_cast<std::size_t>(mix64(k)); }
 };
 
-struct EdgeKey {
-  std::uint64_t a = 0, b = 0;  // a <= b
-  friend bool operator==(const EdgeKey& x, const EdgeKey& y) { return x.a == y.a && x.b == y.b; }
-};
-struct EdgeHash {
-  std::size_t operator()(const EdgeKey& k) const { return static_cast<std::size_t>(mix64(k.a ^ mix64(k.b))); }
-};
-
 struct PositionKey {
   std::uint64_t bits[3] = {0, 0, 0};
   friend bool operator==(const PositionKey& x, const PositionKey& y) {
@@ -111,10 +107,11 @@ struct PositionKey {
 };
 struct PositionHash {
   std::size_t operator()(const PositionKey& k) const {
-    return static_cast<std::size_t>(mix64(k.bits[0] ^ mix64(k.bits[1] ^ mix64(k.bits[2]))));
+    // One finalizer over a combination of the three words (equal hashes of
+    // distinct keys only cost a probe: the map compares whole keys).
+    return static_cast<std::size_t>(
+        mix64(k.bits[0] * 0x9e3779b97f4a7c15ULL + k.bits[1] * 0xc2b2ae3d27d4eb4fULL + k.bits[2]));
   }
 };
-
-struct Empty {};
 
 }  // namespace meshcontact::detail

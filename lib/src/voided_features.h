@@ -54,70 +54,65 @@ struct Patch {
 
 enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
 
+/// The set V of voided triangles, asked "is this vertex / edge voided?".
+/// Each distinct voided vertex key heads a list of the voided triangles that
+/// contain it (linked through the triangles): voiding a triangle is three
+/// map updates, a vertex test one lookup, and an edge (a, b) test one lookup
+/// of a and a walk over the few voided triangles around a (a vertex of a
+/// triangle mesh has ~6) for one that also holds b.
 class VoidedSet {
  public:
-  // Up to kLinear voided triangles are kept in a flat array and scanned: a
-  // query typically voids 2-4 triangles, where hashing 6 keys per triangle
-  // costs more than comparing a few. Past that the hash sets take over.
-  static constexpr std::size_t kLinear = 32;
-
   void reset(std::size_t triangles) {
-    linear_count_ = 0;
-    hashed_ = false;
-    expected_ = triangles;
+    count_ = 0;
+    if (tris_.size() < triangles) tris_.resize(triangles);
+    heads_.reset(3 * triangles);
   }
   void voidTriangle(const std::uint64_t k[3]) {
-    if (!hashed_) {
-      if (linear_count_ < kLinear) {
-        tris_[linear_count_++] = {k[0], k[1], k[2]};
-        return;
-      }
-      vertices_.reset(3 * expected_);
-      edges_.reset(3 * expected_);
-      for (std::size_t i = 0; i < linear_count_; ++i) hashTriangle(tris_[i].data());
-      hashed_ = true;
+    const auto t = static_cast<std::uint32_t>(count_++);
+    Tri& tri = tris_[t];
+    for (int i = 0; i < 3; ++i) {
+      tri.k[i] = k[i];
+      tri.next[i] = kNone;
+      // A key repeated within the triangle is linked once (its first slot).
+      if ((i > 0 && k[i] == k[0]) || (i > 1 && k[i] == k[1])) continue;
+      std::uint32_t& head = heads_.insert(k[i], kNone);
+      tri.next[i] = head;
+      head = t;
     }
-    hashTriangle(k);
   }
   bool isVoided(Feature f, const std::uint64_t k[3]) const {
     if (f.type == FeatureType::kFace) return false;
-    if (hashed_) {
-      if (f.type == FeatureType::kEdge) return edges_.contains(edgeKey(k[f.index], k[(f.index + 1) % 3]));
-      return vertices_.contains(k[f.index]);
-    }
-    const std::uint64_t a = k[f.index];
-    if (f.type == FeatureType::kVertex) {
-      for (std::size_t i = 0; i < linear_count_; ++i) {
-        const auto& t = tris_[i];
-        if (t[0] == a || t[1] == a || t[2] == a) return true;
-      }
-      return false;
-    }
-    const std::uint64_t b = k[(f.index + 1) % 3];
-    for (std::size_t i = 0; i < linear_count_; ++i) {
-      const auto& t = tris_[i];
+    const std::uint32_t* head = heads_.find(k[f.index]);
+    if (head == nullptr) return false;
+    if (f.type == FeatureType::kVertex) return true;
+    const std::uint64_t a = k[f.index], b = k[(f.index + 1) % 3];
+    for (std::uint32_t t = *head; t != kNone;) {
+      const Tri& tri = tris_[t];
       // Two distinct keys of one triangle always form one of its edges.
-      const bool has_a = t[0] == a || t[1] == a || t[2] == a;
-      const bool has_b = t[0] == b || t[1] == b || t[2] == b;
-      if (has_a && has_b) return true;
+      if (tri.k[0] == b || tri.k[1] == b || tri.k[2] == b) return true;
+      t = tri.next[tri.k[0] == a ? 0 : tri.k[1] == a ? 1 : 2];
     }
     return false;
   }
 
  private:
-  void hashTriangle(const std::uint64_t k[3]) {
-    for (int i = 0; i < 3; ++i) {
-      vertices_.insert(k[i], Empty{});
-      edges_.insert(edgeKey(k[i], k[(i + 1) % 3]), Empty{});
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  struct Tri {
+    std::uint64_t k[3];
+    std::uint32_t next[3];  // the next voided triangle holding k[i]
+  };
+  std::vector<Tri> tris_;
+  std::size_t count_ = 0;
+  // Keys are vertex indices (mesh number in the high half) or dense position
+  // numbers: a multiply folds the high half down, and the low bits of
+  // nearby indices stay distinct; splitmix's full mixing is not needed.
+  struct KeyHash {
+    std::size_t operator()(std::uint64_t k) const {
+      const std::uint64_t h = k * 0x9e3779b97f4a7c15ULL;
+      return static_cast<std::size_t>(h ^ (h >> 32));
     }
-  }
-  static EdgeKey edgeKey(std::uint64_t a, std::uint64_t b) { return a < b ? EdgeKey{a, b} : EdgeKey{b, a}; }
-  std::array<std::array<std::uint64_t, 3>, kLinear> tris_;
-  std::size_t linear_count_ = 0;
-  bool hashed_ = false;
-  std::size_t expected_ = 0;
-  StampedMap<std::uint64_t, Empty, U64Hash> vertices_;
-  StampedMap<EdgeKey, Empty, EdgeHash> edges_;
+  };
+  StampedMap<std::uint64_t, std::uint32_t, KeyHash> heads_;  // vertex key -> last voided triangle holding it
 };
 
 struct SortItem {
