@@ -18,16 +18,6 @@ namespace meshcontact {
 
 namespace {
 
-// Same key as the midphase's (query.cpp): the exact bits, -0 folded onto +0.
-detail::PositionKey positionKey(const Vec3& p) {
-  detail::PositionKey key;
-  for (int k = 0; k < 3; ++k) {
-    const double x = p[k] + 0.0;
-    std::memcpy(&key.bits[k], &x, sizeof x);
-  }
-  return key;
-}
-
 Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle& c) {
   const std::string where = "patch " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) + ", triangle " +
                             std::to_string(c.triangle) + ")";
@@ -57,7 +47,7 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
                                                  std::to_string(k) + " is not finite: " +
                                                  detail::describe(c.vertices[k])};
       const auto next = static_cast<std::uint32_t>(sc.positions.size());
-      c.keys[k] = sc.positions.insert(positionKey(c.vertices[k]), next);
+      c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
     }
   }
   return Status::ok();

@@ -1,6 +1,7 @@
 #include "meshcontact/mesh.h"
 
 #include "scaled_edges.h"
+#include "stamped_set.h"
 
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/AABB.h>
@@ -20,8 +21,6 @@ namespace meshcontact {
 
 namespace {
 
-// Float bounds that contain the double value: round toward -inf for a lower
-// bound, toward +inf for an upper one.
 // The next float toward -inf / +inf from a finite f or +-inf, without a
 // libm call (the query box is rounded once per mesh instance per query:
 // nextafterf was a measurable part of a query on 16 tiles).
@@ -36,6 +35,8 @@ float nextFloatDown(float f) {
 }
 float nextFloatUp(float f) { return -nextFloatDown(-f); }
 
+// Float bounds that contain the double value: round toward -inf for a lower
+// bound, toward +inf for an upper one.
 float floatBelow(double x) {
   float f = static_cast<float>(x);
   if (static_cast<double>(f) > x) f = nextFloatDown(f);
@@ -52,16 +53,6 @@ float floatAbove(double x) {
 inline bool overlaps(const BvhNode& n, const float lo[3], const float hi[3]) {
   return (n.lo[0] <= hi[0]) & (n.hi[0] >= lo[0]) & (n.lo[1] <= hi[1]) & (n.hi[1] >= lo[1]) & (n.lo[2] <= hi[2]) &
          (n.hi[2] >= lo[2]);
-}
-
-// Position bits with -0 folded onto +0, so that equal coordinates compare equal.
-std::array<std::uint64_t, 3> positionBits(const double* p) {
-  std::array<std::uint64_t, 3> bits;
-  for (int k = 0; k < 3; ++k) {
-    const double x = p[k] + 0.0;  // -0 + 0 == +0
-    std::memcpy(&bits[k], &x, sizeof x);
-  }
-  return bits;
 }
 
 }  // namespace
@@ -165,9 +156,9 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
 
   // Duplicated vertices: two referenced indices with bitwise-equal positions.
   {
-    std::vector<std::array<std::uint64_t, 3>> keys;
+    std::vector<detail::PositionKey> keys;
     for (std::size_t i = 0; i < vertex_count_; ++i)
-      if (referenced[i]) keys.push_back(positionBits(vertices_ + 3 * i));
+      if (referenced[i]) keys.push_back(detail::positionKey(vertices_ + 3 * i));
     std::sort(keys.begin(), keys.end());
     has_duplicate_vertices_ = std::adjacent_find(keys.begin(), keys.end()) != keys.end();
   }

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 namespace meshcontact {
 
@@ -25,19 +26,6 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
   if (count == 1 && instances[0].mesh && !instances[0].mesh->hasDuplicateVertices()) return KeyMode::kVertexIndex;
   return KeyMode::kVertexPosition;
 }
-
-namespace {
-
-detail::PositionKey positionKey(const Vec3& p) {
-  detail::PositionKey key;
-  for (int k = 0; k < 3; ++k) {
-    const double x = p[k] + 0.0;  // fold -0 onto +0
-    std::memcpy(&key.bits[k], &x, sizeof x);
-  }
-  return key;
-}
-
-}  // namespace
 
 namespace {
 
@@ -97,35 +85,38 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     // overwritten here.
     out.reserve(out.size() + sc.hits.size());
     const std::uint64_t mesh_bits = static_cast<std::uint64_t>(m) << 32;
-    // One loop per case, so the per-vertex work has no branch.
-    if (identity && mode == KeyMode::kVertexIndex) {
+    // One instantiation per case (pose applied or not, position or index
+    // keys), so that the per-vertex work has no branch.
+    const auto append = [&](auto moved, auto by_position) {
       for (const std::uint32_t t : sc.hits) {
         const std::uint32_t* tri = mesh.triangle(t);
         CandidateTriangle& c = out.emplace_back();
         c.mesh = static_cast<std::uint32_t>(m);
         c.triangle = t;
         for (int k = 0; k < 3; ++k) {
-          c.vertices[k] = mesh.vertex(tri[k]);
-          c.keys[k] = mesh_bits | tri[k];
+          if constexpr (decltype(moved)::value) {
+            c.vertices[k] = pose.apply(mesh.vertex(tri[k]));
+          } else {
+            c.vertices[k] = mesh.vertex(tri[k]);
+          }
+          if constexpr (decltype(by_position)::value) {
+            const auto next = static_cast<std::uint32_t>(sc.positions.size());
+            c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+          } else {
+            c.keys[k] = mesh_bits | tri[k];
+          }
         }
       }
-      continue;
-    }
-    for (const std::uint32_t t : sc.hits) {
-      const std::uint32_t* tri = mesh.triangle(t);
-      CandidateTriangle& c = out.emplace_back();
-      c.mesh = static_cast<std::uint32_t>(m);
-      c.triangle = t;
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 v = mesh.vertex(tri[k]);
-        c.vertices[k] = identity ? v : pose.apply(v);
-        if (mode == KeyMode::kVertexPosition) {
-          const auto next = static_cast<std::uint32_t>(sc.positions.size());
-          c.keys[k] = sc.positions.insert(positionKey(c.vertices[k]), next);
-        } else {
-          c.keys[k] = mesh_bits | tri[k];
-        }
-      }
+    };
+    using Yes = std::true_type;
+    using No = std::false_type;
+    const bool by_position = mode == KeyMode::kVertexPosition;
+    if (identity) {
+      if (by_position) append(No{}, Yes{});
+      else append(No{}, No{});
+    } else {
+      if (by_position) append(Yes{}, Yes{});
+      else append(Yes{}, No{});
     }
   }
   return Status::ok();

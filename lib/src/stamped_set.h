@@ -99,12 +99,30 @@ struct U64Hash {
   std::size_t operator()(std::uint64_t k) const { return static_cast<std::size_t>(mix64(k)); }
 };
 
+/// A point's exact coordinates as bits, -0 folded onto +0 so that equal
+/// coordinates give equal keys: the position keys of the voided-features
+/// filter (query.cpp, filter.cpp) and the mesh build's duplicate test.
 struct PositionKey {
   std::uint64_t bits[3] = {0, 0, 0};
   friend bool operator==(const PositionKey& x, const PositionKey& y) {
     return x.bits[0] == y.bits[0] && x.bits[1] == y.bits[1] && x.bits[2] == y.bits[2];
   }
+  friend bool operator<(const PositionKey& x, const PositionKey& y) {  // lexicographic
+    if (x.bits[0] != y.bits[0]) return x.bits[0] < y.bits[0];
+    if (x.bits[1] != y.bits[1]) return x.bits[1] < y.bits[1];
+    return x.bits[2] < y.bits[2];
+  }
 };
+
+/// The key of the point (p[0], p[1], p[2]).
+inline PositionKey positionKey(const double* p) {
+  PositionKey key;
+  for (int k = 0; k < 3; ++k) {
+    const double x = p[k] + 0.0;  // -0 + 0 == +0
+    std::memcpy(&key.bits[k], &x, sizeof x);
+  }
+  return key;
+}
 struct PositionHash {
   std::size_t operator()(const PositionKey& k) const {
     // One finalizer over a combination of the three words (equal hashes of

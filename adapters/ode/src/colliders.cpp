@@ -27,6 +27,33 @@ void keepInstance(std::vector<Contact>& contacts, std::uint32_t own) {
   contacts.resize(w);
 }
 
+// Writes the selected contacts (ctx.chosen) as dContactGeoms and returns how
+// many. ODE's normal points into g1. `trimesh_first`: g1 = the trimesh (the
+// override: the normal is the core's, negated, since the core's points from
+// the mesh toward the shape) and side1 = the triangle; otherwise g1 = the
+// shape (collideWithGroup: the core's direction) and side2 = the triangle.
+int writeContacts(const ThreadContext& ctx, bool trimesh_first, dGeomID trimesh, dGeomID shape,
+                  dContactGeom* contacts, int skip) {
+  const Pose& frame = ctx.frame;
+  int written = 0;
+  for (std::uint32_t i : ctx.chosen) {
+    const Contact& c = ctx.contacts[i];
+    dContactGeom* out = contactAt(contacts, written++, skip);
+    setVec(out->pos, frame.apply(c.point));
+    const Vec3 normal = frame.rotation * c.normal;
+    setVec(out->normal, trimesh_first ? Vec3(-normal) : normal);
+    out->depth = static_cast<dReal>(c.depth);
+    // collideWithGroup: each contact names the piece it came from.
+    const dGeomID mesh_geom = trimesh_first ? trimesh : ctx.instance_geoms[c.mesh];
+    out->g1 = trimesh_first ? mesh_geom : shape;
+    out->g2 = trimesh_first ? shape : mesh_geom;
+    out->side1 = trimesh_first ? static_cast<int>(c.triangle) : -1;
+    out->side2 = trimesh_first ? -1 : static_cast<int>(c.triangle);
+  }
+  Registry::get().contacts_returned.fetch_add(written, std::memory_order_relaxed);
+  return written;
+}
+
 // ODE calls it as (trimesh, shape) for both orders (dSetColliderOverride),
 // and swaps the result itself for dCollide(shape, trimesh).
 int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* contacts, int skip) {
@@ -52,22 +79,7 @@ int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* con
   keepInstance(ctx.contacts, own);
   r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
   detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
-  const Pose& frame = ctx.frame;
-  int written = 0;
-  for (std::uint32_t i : ctx.chosen) {
-    const Contact& c = ctx.contacts[i];
-    dContactGeom* out = contactAt(contacts, written++, skip);
-    setVec(out->pos, frame.apply(c.point));
-    // The core's normal points from the mesh toward the shape; ODE's points
-    // into g1 = the trimesh.
-    setVec(out->normal, -(frame.rotation * c.normal));
-    out->depth = static_cast<dReal>(c.depth);
-    out->g1 = trimesh;
-    out->g2 = shape;
-    out->side1 = static_cast<int>(c.triangle);
-    out->side2 = -1;
-  }
-  r.contacts_returned.fetch_add(written, std::memory_order_relaxed);
+  const int written = writeContacts(ctx, true, trimesh, shape, contacts, skip);
   ctx.held.clear();  // an invalidated mesh is freed now, not at this thread's next query
   return written;
 }
@@ -107,22 +119,7 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
   }
   r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
   detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
-  const Pose& frame = ctx.frame;
-  int written = 0;
-  for (std::uint32_t i : ctx.chosen) {
-    const Contact& c = ctx.contacts[i];
-    dContactGeom* out = contactAt(contacts, written++, skip);
-    setVec(out->pos, frame.apply(c.point));
-    // Order (shape, piece): the normal points into g1 = the shape, i.e. from
-    // the mesh toward the shape, which is the core's direction.
-    setVec(out->normal, frame.rotation * c.normal);
-    out->depth = static_cast<dReal>(c.depth);
-    out->g1 = shape;
-    out->g2 = ctx.instance_geoms[c.mesh];
-    out->side1 = -1;
-    out->side2 = static_cast<int>(c.triangle);
-  }
-  r.contacts_returned.fetch_add(written, std::memory_order_relaxed);
+  const int written = writeContacts(ctx, false, nullptr, shape, contacts, skip);
   ctx.held.clear();
   return written;
 }
