@@ -64,6 +64,21 @@ inline RawMesh rawMesh(FuzzedDataProvider& in) {
   return m;
 }
 
+/// One to three fuzzed meshes (`meshes` holds them; it must outlive the
+/// result), as instances at the identity: those whose build fails are left
+/// out (construction is fuzz target (a)). Empty when none builds.
+inline std::vector<MeshInstance> buildPieces(FuzzedDataProvider& in, std::vector<TriangleMesh>& meshes) {
+  const int piece_count = in.ConsumeIntegralInRange<int>(1, 3);
+  meshes = std::vector<TriangleMesh>(static_cast<std::size_t>(piece_count));
+  std::vector<MeshInstance> instances;
+  for (TriangleMesh& mesh : meshes) {
+    const RawMesh raw = rawMesh(in);
+    if (!mesh.build(raw.vertices, raw.indices)) continue;
+    instances.push_back({&mesh, Pose::identity()});
+  }
+  return instances;
+}
+
 inline Pose pose(FuzzedDataProvider& in, double scale) {
   Pose p;
   switch (in.ConsumeIntegralInRange<int>(0, 3)) {

@@ -35,14 +35,8 @@ std::vector<Vec3> hullPoints(FuzzedDataProvider& in, double scale) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzedDataProvider in(data, size);
-  const int piece_count = in.ConsumeIntegralInRange<int>(1, 3);
-  std::vector<TriangleMesh> meshes(static_cast<std::size_t>(piece_count));
-  std::vector<MeshInstance> instances;
-  for (TriangleMesh& mesh : meshes) {
-    const fuzz::RawMesh raw = fuzz::rawMesh(in);
-    if (!mesh.build(raw.vertices, raw.indices)) continue;  // construction is fuzz target (a)
-    instances.push_back({&mesh, Pose::identity()});
-  }
+  std::vector<TriangleMesh> meshes;
+  std::vector<MeshInstance> instances = fuzz::buildPieces(in, meshes);
   if (instances.empty()) return 0;
   const double scale = std::ldexp(1.0, in.ConsumeIntegralInRange<int>(-30, 30));
   if (instances.size() > 1 || in.ConsumeBool())
