@@ -62,6 +62,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 namespace meshcontact {
 
@@ -365,6 +366,10 @@ namespace {
 struct Counters {
   bool support_not_finite = false;
   bool core_intersects = false;  // this pass must be redone with a smaller core
+  // Collision checking (ConvexNarrowphase::predict): the full shape was
+  // found meeting the triangle, and then, in a deeper pass, a contact.
+  bool full_meets = false;
+  bool predicted_contact = false;
 };
 
 // The core in the query frame, scaled by `scale` about `center`.
@@ -399,6 +404,29 @@ struct TriangleSupport {
   }
 };
 
+// Collision checking's GJK monitor (see gjkDistance): stops once the
+// closest vector's side of the triangle's plane (its sign along n) is
+// certain, the lower bound of the distance clear of zero, with 1e-4 of slack
+// on the direction (GJK itself ends within ~1e-6 rad of it).
+struct SideMonitor {
+  Vec3 n;
+  double min_lower;
+  bool enabled;
+  int* side;
+  bool operator()(const Vec3& v, double v2, double vw) const {
+    if (!enabled || !(vw > 0.0) || !(vw * vw > min_lower * min_lower * v2)) return false;
+    const double len = std::sqrt(v2);
+    const double sin_max = std::sqrt(std::max(0.0, 1.0 - vw / v2));
+    const double c = v.dot(n) / len;
+    if (c > sin_max + 1e-4) *side = 1;
+    else if (c < -(sin_max + 1e-4)) *side = -1;
+    return *side != 0;
+  }
+};
+
+// kChecking: collision checking's instance (ConvexContactProbe), with the
+// shortcuts below; the contacts path's instance has none of their code.
+template <bool kChecking>
 struct ConvexNarrowphase {
   const SupportShape* shape;
   Pose pose;
@@ -409,6 +437,12 @@ struct ConvexNarrowphase {
   double scale;  // of the core about the center: 1, then smaller under deep penetration
   double radius; // of the core about the center (an upper bound)
   Counters* counters;
+  // Collision checking (ConvexContactProbe): a core that clearly meets the
+  // triangle is taken as intersecting without running GJK; with
+  // `predict_contact` too, a deeper pass whose outcome is certainly a
+  // contact stops where GJK would start (see touches()).
+  bool predict_intersection = false;
+  bool predict_contact = false;
 
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     using detail::PatchOutcome;
@@ -448,12 +482,20 @@ struct ConvexNarrowphase {
     const Vec3 low = core(-n);  // the (scaled) core's lowest point along n
     const double gap = n.dot(low - a);
     // One-sided: culled when the whole (scaled) core is behind the plane.
+    // (The highest point is kept for collision checking's shortcuts.)
+    struct Highest {
+      Vec3 point;
+      double height;
+    };
+    [[maybe_unused]] std::conditional_t<kChecking, Highest, char> highest{};
     if (gap < 0.0) {
-      const double top = n.dot(core(n) - a);
+      const Vec3 high = core(n);
+      const double top = n.dot(high - a);
       if (top < 0.0) {
         p.distance = -top;
         return PatchOutcome::kBackFacing;
       }
+      if constexpr (kChecking) highest = Highest{high, top};
     }
     // Even the plane is beyond reach of the full shape (fig. 1).
     const Vec3 low_full = scale == 1.0 ? low : core.full(-n);
@@ -483,6 +525,30 @@ struct ConvexNarrowphase {
       return facePatch(tri, n, low_full - margin * n, scale == 1.0, p);
     }
 
+    if constexpr (kChecking) {
+      if (predict_intersection && gap < 0.0 && clearlyIntersects(tri, n, low, gap, highest.point, highest.height)) {
+        // What GJK would find (below): the core touches the triangle. The
+        // scaled core lies in the full shape, which then meets the
+        // triangle by at least the tolerance.
+        counters->core_intersects = true;
+        if (margin > 2e-6 * size) counters->full_meets = true;
+        p.distance = 0.0;
+        return PatchOutcome::kDegenerate;
+      }
+      if (predict_contact && scale < 1.0 && counters->full_meets && gap > 1e-6 * size) {
+        // A deeper pass, the scaled core clear in front of the plane, the
+        // full shape meeting the triangle: GJK (below) finds the core
+        // separated (gap > 0), within reach (the full shape lies within
+        // margin + (1 - scale) * radius of the scaled core), its closest
+        // point in front (u . n >= gap / d > 0); then a face patch gets a
+        // point (the witness, below the plane, if the clip is empty) and a
+        // point patch a depth >= 0 (the shape and the triangle overlap on
+        // every axis). A contact, whatever GJK's exact direction.
+        counters->predicted_contact = true;
+        p.distance = 0.0;
+        return PatchOutcome::kDegenerate;
+      }
+    }
     detail::GjkSettings gjk;
     gjk.max_distance = reach;
     gjk.relative_gap = 1e-10;
@@ -492,8 +558,29 @@ struct ConvexNarrowphase {
     // cost GJK five digits).
     const Vec3 local_tri[3] = {Vec3::Zero(), ab, ac};
     const PlacedCore local_core{shape, &pose.rotation, pose.translation - a, center - a, scale, counters};
-    detail::GjkResult g =
-        detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk);
+    int side = 0;  // SideMonitor's verdict
+    // (Initialized in place: a GjkResult holds its simplex, hundreds of bytes.)
+    // One call site per instance, so that the compiler inlines GJK (and the
+    // support calls in it) into each, as for a single caller.
+    detail::GjkResult g = [&] {
+      if constexpr (kChecking) {
+        const bool monitored = predict_contact && scale < 1.0 && counters->full_meets;
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk,
+                                   SideMonitor{n, 1e-9 * size, monitored, &side});
+      } else {
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk);
+      }
+    }();
+    if (kChecking && g.stopped) {
+      // A deeper pass, the full shape meeting the triangle (by more than
+      // 1e-6 of the size: the margin), the scaled core separated: GJK's
+      // closest point ends behind the plane (back-facing) or in front (a
+      // contact, as in the gap > 0 case above): the side is known.
+      p.distance = 0.0;
+      if (side < 0) return PatchOutcome::kBackFacing;
+      counters->predicted_contact = true;
+      return PatchOutcome::kDegenerate;
+    }
     g.point_a += a;
     g.point_b += a;
     if (g.status == detail::GjkStatus::kNotFinite || counters->support_not_finite) {
@@ -501,6 +588,9 @@ struct ConvexNarrowphase {
       return PatchOutcome::kDegenerate;
     }
     if (g.status == detail::GjkStatus::kIntersecting) {
+      // Within 1e-10 of the size: the full shape meets the triangle by its
+      // margin less that, when the margin is clearly larger.
+      if (kChecking && scale == 1.0 && margin > 2e-6 * size) counters->full_meets = true;
       counters->core_intersects = true;
       p.distance = 0.0;
       return PatchOutcome::kDegenerate;
@@ -538,6 +628,30 @@ struct ConvexNarrowphase {
     }
     if (face) return facePatch(tri, n, low_full - margin * n, false, p);
     return pointPatch(tri, u, p);
+  }
+
+  // Whether the (scaled) core certainly meets the triangle: a segment of it
+  // (its lowest point along n to its highest, or to its center) crosses
+  // the triangle's plane inside the triangle, every margin at least 1e-6 of
+  // the problem's size. GJK's distance on such a pair cannot stop
+  // separated: each of its exits needs a lower bound > 0 or a point of the
+  // Minkowski difference that this margin keeps away from the origin, and
+  // its touching tolerance is 1e-10 of the size.
+  bool clearlyIntersects(const Vec3 tri[3], const Vec3& n, const Vec3& low, double gap, const Vec3& high,
+                         double top) const {
+    const double tol = 1e-6 * size;
+    if (!(gap < -tol)) return false;
+    const auto crossesInside = [&](const Vec3& upper, double height) {
+      if (!(height > tol)) return false;
+      const Vec3 x = low + (-gap / (height - gap)) * (upper - low);
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 edge = tri[(k + 1) % 3] - tri[k];
+        // n x edge points into the triangle (counter-clockwise about n).
+        if (!(n.cross(edge).dot(x - tri[k]) > tol * edge.norm())) return false;
+      }
+      return true;
+    };
+    return crossesInside(high, top) || crossesInside(center, n.dot(center - tri[0]));
   }
 
   // Whether x projects along n into the closed triangle (edge planes
@@ -695,17 +809,23 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
   return Status::ok();
 }
 
+// The bounding box's farthest corner from the center bounds the core's radius.
+double coreRadius(const Vec3& lo, const Vec3& hi, const Vec3& center) {
+  double radius = 0.0;
+  for (int k = 0; k < 8; ++k)
+    radius = std::max(radius, (Vec3((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z()) -
+                               center)
+                                  .norm());
+  return radius;
+}
+
 Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
                      const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
                      QueryScratch& scratch, std::vector<Contact>& contacts) {
   Counters counters;
   const double size = (hi - lo).norm();
-  double radius = 0.0;  // the bounding box's farthest corner from the center bounds the core's radius
-  for (int k = 0; k < 8; ++k)
-    radius = std::max(radius, (Vec3((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z()) -
-                               center)
-                                  .norm());
-  ConvexNarrowphase narrowphase{&shape, pose, shape.margin(), settings.contact_distance, size, center, 1.0, radius,
+  const double radius = coreRadius(lo, hi, center);
+  ConvexNarrowphase<false> narrowphase{&shape, pose, shape.margin(), settings.contact_distance, size, center, 1.0, radius,
                                 &counters};
   QueryScratch::Impl& sc = scratch.impl();
   // Deep penetration: the same query with the core shrunk toward its center
@@ -724,7 +844,95 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
   return Status::ok();
 }
 
+const char* const kNotFiniteSupport = "the shape's support function returned a non-finite point";
+
+// A one-candidate query's contacts are the patch's points in order (the
+// filter keeps the only patch; the reduction keeps each manifold's deepest
+// point): its deepest contact is the patch's first deepest point.
+bool patchContact(detail::PatchOutcome outcome, const detail::Patch& p, const CandidateTriangle& c, Contact* out) {
+  if (outcome != detail::PatchOutcome::kContact || p.count <= 0) return false;
+  if (out) {
+    int best = 0;
+    for (int k = 1; k < p.count; ++k)
+      if (p.depths[k] > p.depths[best]) best = k;
+    out->point = p.points[best];
+    out->normal = p.normal;
+    out->depth = p.depths[best];
+    out->mesh = c.mesh;
+    out->triangle = c.triangle;
+    out->feature = p.feature;
+  }
+  return true;
+}
+
 }  // namespace
+
+// ---------------------------------------------------------------------------
+// Collision checking, one candidate at a time
+
+Status ConvexContactProbe::prepare(const SupportShape& shape, const Pose& pose, const QuerySettings& settings) {
+  shape_ = nullptr;
+  Status s = checkCommon(shape, pose, settings);
+  if (!s) return s;
+  Vec3 lo, hi, center;
+  s = shapeBounds(shape, pose, lo, hi, center);
+  if (!s) return s;
+  // What runCandidates computes per query, once.
+  shape_ = &shape;
+  pose_ = pose;
+  center_ = center;
+  margin_ = shape.margin();
+  contact_distance_ = settings.contact_distance;
+  size_ = (hi - lo).norm();
+  radius_ = coreRadius(lo, hi, center);
+  return Status::ok();
+}
+
+// Both answers replay runCandidates on the one triangle: its narrowphase,
+// the same scales. With one candidate the filter keeps the patch whatever
+// its feature (nothing is voided before the first patch), and the manifold
+// reduction keeps at least one point of every manifold, so the query has a
+// contact exactly when the last pass's patch is a contact with a point.
+Status ConvexContactProbe::touches(const CandidateTriangle& candidate, bool& contact) const {
+  contact = false;
+  if (shape_ == nullptr) return {ErrorCode::kInvalidShape, "ConvexContactProbe: prepare() has not succeeded"};
+  Counters counters;
+  ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
+  narrowphase.predict_intersection = true;
+  narrowphase.predict_contact = true;
+  detail::Patch p;
+  detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
+  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
+    narrowphase.scale = scale;
+    counters.core_intersects = false;
+    p.face_count = 0;
+    outcome = narrowphase(candidate, p);
+    if (counters.support_not_finite || counters.predicted_contact || !counters.core_intersects) break;
+  }
+  if (counters.support_not_finite) return {ErrorCode::kInvalidShape, kNotFiniteSupport};
+  contact = counters.predicted_contact || patchContact(outcome, p, candidate, nullptr);
+  return Status::ok();
+}
+
+Status ConvexContactProbe::check(const CandidateTriangle& candidate, bool& contact, Contact* deepest) const {
+  contact = false;
+  if (shape_ == nullptr) return {ErrorCode::kInvalidShape, "ConvexContactProbe: prepare() has not succeeded"};
+  Counters counters;
+  ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
+  narrowphase.predict_intersection = true;
+  detail::Patch p;
+  detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
+  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
+    narrowphase.scale = scale;
+    counters.core_intersects = false;
+    p.face_count = 0;
+    outcome = narrowphase(candidate, p);
+    if (counters.support_not_finite || !counters.core_intersects) break;
+  }
+  if (counters.support_not_finite) return {ErrorCode::kInvalidShape, kNotFiniteSupport};
+  contact = patchContact(outcome, p, candidate, deepest);
+  return Status::ok();
+}
 
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,

@@ -60,6 +60,7 @@ struct GjkResult {
   int iterations = 0;
   bool converged = true;  // false: iteration cap hit; the result is the best upper bound found
   bool beyond = false;    // stopped early: the distance is certainly > GjkSettings::max_distance
+  bool stopped = false;   // stopped early by the caller's monitor (v, distance: the current upper bound)
   Simplex simplex;        // terminal simplex (its b's tell the feature of B used)
 };
 
@@ -82,9 +83,22 @@ struct GjkSettings {
 /// support along its opposite minus B's along it). `length_scale` is the
 /// size of the problem (tolerances are relative to it); run it in a frame
 /// near the sets, as rounding is relative to the coordinates' magnitude.
-template <class SupportA, class SupportB>
+/// The default monitor of gjkDistance: never stops it.
+struct GjkNoMonitor {
+  bool operator()(const Vec3& /*v*/, double /*v2*/, double /*vw*/) const { return false; }
+};
+
+/// `monitor(v, |v|^2, v.w)` is asked at each iteration, once w (the support
+/// of A - B along -v) is known, before the termination tests: returning true
+/// stops GJK there (result `stopped`, separated, v the current vector). It
+/// only reads: with a monitor that never stops, the result is bit for bit
+/// the one without. (v.w / |v| is a lower bound of the distance; the closest
+/// vector lies in the ball on the diameter [0, v] and in the half-space
+/// x . v >= v.w, hence within asin(sqrt(1 - v.w / |v|^2)) of v's direction.)
+template <class SupportA, class SupportB, class Monitor = GjkNoMonitor>
 GjkResult gjkDistance(const SupportA& support_a, const SupportB& support_b, const Vec3& initial_direction,
-                      double length_scale, const GjkSettings& settings = GjkSettings()) {
+                      double length_scale, const GjkSettings& settings = GjkSettings(),
+                      const Monitor& monitor = Monitor()) {
   GjkResult r;
   Simplex& s = r.simplex;
   auto vertexAlong = [&](const Vec3& d, SimplexVertex& out) {
@@ -119,6 +133,10 @@ GjkResult gjkDistance(const SupportA& support_a, const SupportB& support_b, cons
     // w is the support of A - B along -v: v.w / |v| is a lower bound of
     // the distance (the plane through w normal to v separates the sets).
     const double vw = v.dot(w.w);
+    if (monitor(v, v2, vw)) {
+      r.stopped = true;
+      break;
+    }
     if (vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2) {
       r.beyond = true;
       break;

@@ -253,38 +253,89 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   Scratch::Impl& sc = scratch.impl();
   sc.candidates.clear();
   sc.contacts.clear();
-  const detail::QueryVolume volume = detail::makeQueryVolume(shape, shape_in_model, cd);
+  detail::QueryVolume volume = detail::makeQueryVolume(shape, shape_in_model, cd);
   const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh.geometry) : nullptr;
   const std::size_t room = request.num_max_contacts - have;
   // Collision checking: a boolean request wanting one contact stops at the
-  // first triangle in contact. One candidate at a time gives a contact
-  // exactly when the whole query would give some (the filter never voids
-  // the first patch it processes), so the answer is the same.
+  // first triangle in contact. For a sphere, capsule or box, one candidate
+  // at a time gives a contact exactly when the whole query would give some
+  // (the filter never voids the first patch it processes). A support shape's
+  // whole query picks one shrink scale for all its triangles, so a deep pose
+  // can differ before the pass-through fallback below; with it, the
+  // in-collision answers agree (tests/fcl/fcl_boolean_test.cpp).
   const bool checking = !request.enable_contact && room == 1 && options.settings.trace == nullptr;
 
   // The per-candidate test of collision checking. Only a triangle whose
   // plane the shape reaches (within the contact distance) can be in contact.
+  // Support shapes (cylinder, cone, ellipsoid, convex) go through the core's
+  // ConvexContactProbe: the per-query setup (validation, bounds) once, then
+  // per triangle the answer of that triangle's own query, without building
+  // its contacts. The walk visits the candidates nearest the shape first
+  // (the answer is whether any candidate gives a contact: the order does not
+  // change it).
   struct Checker final : detail::LeafVisitor {
-    Checker(const ShapeDesc& shape_, const Pose& pose_, const Options& options_, Scratch::Impl& sc_, double cd_)
-        : shape(shape_), pose(pose_), options(options_), sc(sc_), cd(cd_) {}
+    Checker(const ShapeDesc& shape_, const Pose& pose_, const Options& options_, Scratch::Impl& sc_, double cd_,
+            const ConvexContactProbe* probe_)
+        : shape(shape_), pose(pose_), options(options_), sc(sc_), cd(cd_), probe(probe_) {}
     const ShapeDesc& shape;
     const Pose& pose;
     const Options& options;
     Scratch::Impl& sc;
     double cd;
+    const ConvexContactProbe* probe;
     Status status;
+    bool hit = false;
+    Contact found;  // a support shape's hit (see below)
     bool visit(const CandidateTriangle& c) override {
       const Vec3 n = normalizedOr((c.vertices[1] - c.vertices[0]).cross(c.vertices[2] - c.vertices[0]), Vec3::Zero());
-      if (n.isZero() || n.dot(c.vertices[0] - detail::supportPoint(shape, pose, -n)) < -cd) return false;
+      if (n.isZero()) return false;
+      const Vec3 lowest = detail::supportPoint(shape, pose, -n);
+      const double depth = n.dot(c.vertices[0] - lowest);
+      if (depth < -cd) return false;
+      if (probe) {
+        // Whether the triangle's own query has a contact, without computing
+        // it (GJK to convergence is most of its cost): FCL reports no
+        // geometry for enable_contact false, and the contact added is the
+        // triangle's plane contact (its face normal, the shape's deepest
+        // point along it, the depth that clears the plane), as the fallback
+        // builds. probe->check() would give the exact one.
+        status = probe->touches(c, hit);
+        if (status && hit) {
+          found.point = lowest;
+          found.normal = n;
+          found.depth = std::max(depth, 0.0);
+          found.mesh = c.mesh;
+          found.triangle = c.triangle;
+          found.feature = Feature::face();
+        }
+        return !status || hit;
+      }
       status = detail::collideCandidates(shape, pose, &c, 1, options.settings, sc.query, sc.contacts);
-      return !status || !sc.contacts.empty();
+      hit = status && !sc.contacts.empty();
+      return !status || hit;
     }
   };
-  Checker checker(shape, shape_in_model, options, sc, cd);
+  detail::SupportStorage storage;
+  const SupportShape* support = checking ? detail::supportShape(shape, storage) : nullptr;
+  ConvexContactProbe probe;
   if (checking) {
     // The shape, pose and settings are checked even with no triangle near.
-    s = detail::collideCandidates(shape, shape_in_model, nullptr, 0, options.settings, sc.query, sc.contacts);
+    if (support)
+      s = probe.prepare(*support, shape_in_model, options.settings);
+    else
+      s = detail::collideCandidates(shape, shape_in_model, nullptr, 0, options.settings, sc.query, sc.contacts);
     if (!s) return s;
+  }
+  Checker checker(shape, shape_in_model, options, sc, cd, support ? &probe : nullptr);
+
+  if (checking && !volume.ball_only) {
+    // Collision checking needs only the triangles the shape may touch: those
+    // within the contact distance of its (sharp) box, so within the box's
+    // bounding ball, a smaller one than the axis-aligned bounds' (the walk's
+    // first test). Slack: the tolerance of FCL's own overlap test (the
+    // fallback below), absolute.
+    const double slack = std::max(request.gjk_tolerance, 0.0) + 1e-6 * shape.size;
+    volume.radius = std::min(volume.radius, volume.half.norm() + slack);
   }
 
   if (compact) {
@@ -293,9 +344,22 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     const MeshInstance instance{compact, Pose::identity()};
     s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
     if (!s) return s;
-    if (checking)
-      for (const CandidateTriangle& c : sc.candidates)
-        if (checker.visit(c)) break;
+    if (checking) {
+      // Nearest the query's centre first (as the walk below): contact is
+      // likeliest there, and the first triangle in contact ends the check.
+      sc.order.resize(sc.candidates.size());
+      std::iota(sc.order.begin(), sc.order.end(), 0u);
+      const auto key = [&](std::uint32_t i) {
+        const CandidateTriangle& c = sc.candidates[i];
+        return (c.vertices[0] + c.vertices[1] + c.vertices[2] - 3.0 * volume.center).squaredNorm();
+      };
+      std::sort(sc.order.begin(), sc.order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        const double ka = key(a), kb = key(b);
+        return ka != kb ? ka < kb : a < b;
+      });
+      for (const std::uint32_t i : sc.order)
+        if (checker.visit(sc.candidates[i])) break;
+    }
   } else {
     s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
     if (!s) return s;
@@ -306,6 +370,12 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   }
   if (checking) {
     if (!checker.status) return checker.status;
+    // A support shape's hit: its plane contact (the other shapes left their
+    // one-candidate query's contacts in sc.contacts).
+    if (support) {
+      sc.contacts.clear();
+      if (checker.hit) sc.contacts.push_back(checker.found);
+    }
   } else {
     s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), options.settings,
                                   sc.query, sc.contacts);

@@ -28,6 +28,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -111,6 +112,17 @@ struct ShapeDesc {
 /// True when `g` is one of the shapes the pipeline handles; fills `out`.
 /// Dimensions are not validated here (the core's queries do).
 bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out);
+
+/// The core's SupportShape of a cylinder, cone, ellipsoid or convex (the
+/// one collideCandidates queries), built in place: no allocation. Null for
+/// the closed-form shapes (sphere, capsule, box).
+struct SupportStorage {
+  std::optional<CylinderShape> cylinder;
+  std::optional<ConeShape> cone;
+  std::optional<EllipsoidShape> ellipsoid;
+  std::optional<FclConvexShape> convex;
+};
+const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage);
 
 /// The core's query for this shape on candidates (query frame), `pose`
 /// placing the shape in the query frame.

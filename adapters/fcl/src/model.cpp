@@ -106,8 +106,17 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
       // start fetching both while the stack unwinds to them.
       const char* first = reinterpret_cast<const char*>(&m.getBV(node.leftChild()));
       for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
-      stack.push_back(node.rightChild());
-      stack.push_back(node.leftChild());
+      int first_child = node.leftChild(), second_child = node.rightChild();
+      if (visitor) {
+        // Collision checking stops at the first triangle in contact (any
+        // one: the answer does not depend on the order): the child nearer
+        // the query's centre first, where contact is likeliest.
+        const double dl = (m.getBV(first_child).bv.center() - q.center).squaredNorm();
+        const double dr = (m.getBV(second_child).bv.center() - q.center).squaredNorm();
+        if (dr < dl) std::swap(first_child, second_child);
+      }
+      stack.push_back(second_child);
+      stack.push_back(first_child);
       continue;
     }
     const int t = node.primitiveId();

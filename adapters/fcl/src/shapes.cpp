@@ -261,6 +261,22 @@ bool describeShape(const ::fcl::CollisionGeometryd* g, ShapeDesc& out) {
   }
 }
 
+const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage) {
+  switch (shape.kind) {
+    case ShapeKind::kSphere:
+    case ShapeKind::kCapsule:
+    case ShapeKind::kBox: return nullptr;
+    case ShapeKind::kCylinder: return &storage.cylinder.emplace(Cylinder{shape.radius, shape.half_length});
+    case ShapeKind::kCone: return &storage.cone.emplace(shape.radius, shape.half_length);
+    case ShapeKind::kEllipsoid: return &storage.ellipsoid.emplace(shape.half_extents);
+    case ShapeKind::kConvex: {
+      const auto& convex = static_cast<const ::fcl::Convexd&>(*shape.geometry);
+      return &storage.convex.emplace(convex.getVertices(), shape.size);
+    }
+  }
+  return nullptr;
+}
+
 Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                          std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                          std::vector<Contact>& contacts) {
@@ -277,18 +293,13 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
     case ShapeKind::kBox:
       return collideBoxCandidates(Box{shape.half_extents}, pose, candidates, count, settings, scratch, contacts);
     case ShapeKind::kCylinder:
-      return collideCylinderCandidates(Cylinder{shape.radius, shape.half_length}, pose, candidates, count, settings,
-                                       scratch, contacts);
     case ShapeKind::kCone:
-      return collideConvexCandidates(ConeShape(shape.radius, shape.half_length), pose, candidates, count, settings,
-                                     scratch, contacts);
     case ShapeKind::kEllipsoid:
-      return collideConvexCandidates(EllipsoidShape(shape.half_extents), pose, candidates, count, settings, scratch,
-                                     contacts);
     case ShapeKind::kConvex: {
-      const auto& convex = static_cast<const ::fcl::Convexd&>(*shape.geometry);
-      return collideConvexCandidates(FclConvexShape(convex.getVertices(), shape.size), pose, candidates, count,
-                                     settings, scratch, contacts);
+      // (collideCylinderCandidates is collideConvexCandidates on this CylinderShape.)
+      SupportStorage storage;
+      return collideConvexCandidates(*supportShape(shape, storage), pose, candidates, count, settings, scratch,
+                                     contacts);
     }
   }
   return {ErrorCode::kInvalidShape, "unknown shape kind"};

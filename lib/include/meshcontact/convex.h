@@ -51,6 +51,7 @@
 #include "meshcontact/status.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace meshcontact {
@@ -241,6 +242,41 @@ class CylinderShape final : public SupportShape {
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts);
+
+/// Collision checking with a support shape, one candidate triangle at a
+/// time: prepare() does the per-query work of collideConvexCandidates once
+/// (the same validation and errors, the shape's bounds and center), then
+/// check(c) says whether collideConvexCandidates(shape, pose, &c, 1,
+/// settings, ...) would give at least one contact: the same narrowphase and
+/// deep-penetration passes on that triangle, without the filter, the patch
+/// output or the manifold reduction. Where the core clearly meets the
+/// triangle (a segment of it crosses the triangle's interior, every margin
+/// at least 1e-6 of the shape's size), the intersection GJK would find is
+/// taken without running it. With a contact, `deepest` (when given)
+/// receives that query's deepest contact (the first of equal depths, in its
+/// output order): what a request for one contact keeps. touches(c) is
+/// check(c) without the contact, cheaper: in a deeper pass, once the full
+/// shape is known to meet the triangle by more than 1e-6 of its size (its
+/// margin), only the side of the triangle's plane the scaled core's closest
+/// point lies on decides, and GJK stops (or is not run) as soon as that side
+/// is certain. No allocation. The shape must outlive the probe's use; `pose`
+/// and the settings are copied.
+class ConvexContactProbe {
+ public:
+  Status prepare(const SupportShape& shape, const Pose& pose, const QuerySettings& settings);
+  /// Errors: kInvalidShape (a support point is not finite; prepare() has not succeeded).
+  Status touches(const CandidateTriangle& candidate, bool& contact) const;
+  Status check(const CandidateTriangle& candidate, bool& contact, Contact* deepest = nullptr) const;
+
+ private:
+  const SupportShape* shape_ = nullptr;
+  Pose pose_;
+  Vec3 center_ = Vec3::Zero();
+  double margin_ = 0.0;
+  double contact_distance_ = 0.0;
+  double size_ = 0.0;
+  double radius_ = 0.0;
+};
 
 /// The whole pipeline against one mesh (query frame = mesh frame).
 Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,

@@ -218,8 +218,12 @@ struct Report {
 /// (ties: lower triangle index). With request.enable_contact false only
 /// o1/o2/b1/b2 are meaningful (as in FCL), the others are filled anyway;
 /// when, in addition, one contact is wanted (collision checking), the query
-/// stops at the first triangle in contact (in BVH order) and reports that
-/// triangle's own contact, unfiltered; the in-collision answer is the same.
+/// stops at the first triangle in contact (nearest the shape first) and
+/// reports a contact on that triangle: a sphere's, capsule's or box's own
+/// contact, unfiltered; for a cylinder, cone, ellipsoid or convex its plane
+/// contact (the face normal, the shape's deepest point along it, the depth
+/// that clears the plane), since the exact one needs GJK run to the end. The
+/// in-collision answer is the same as with contacts on.
 /// request.gjk_solver_type only affects forwarded pairs and the fallback
 /// test (Report::through_contacts); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.

@@ -1,0 +1,140 @@
+// Collision checking (CollisionRequest(1, enable_contact = false)) against
+// the contacts request on the same poses: the support shapes' boolean path
+// (ConvexContactProbe, its shortcuts before GJK, the walk nearest-first)
+// must give the in-collision answer of the full query, and its pipeline must
+// find a contact exactly when one of the candidates, queried alone by the
+// core (collideConvexCandidates on that one triangle), gives one: what
+// collision checking promises (meshcontact/fcl.h).
+#include "fcl_test_support.h"
+
+#include <memory>
+#include <string>
+
+namespace meshcontact::fcltest {
+namespace {
+
+// Flat ground (shared planes: the deep passes on every triangle) and a
+// sine terrain (faces, edges and vertices).
+SceneMesh flat() { return scenes::flatFloor(12, 12, 0.5, 61); }
+SceneMesh sine() { return scenes::sineTerrain(12, 12, 0.5, 0.5, 3.0, 62); }
+
+struct Outcome {
+  bool hit = false;
+  std::size_t contacts = 0;
+  int triangle = -1;
+  fcl::Report report;
+};
+
+Outcome run(const ::fcl::CollisionObjectd& mesh, const ::fcl::CollisionObjectd& shape,
+            const ::fcl::CollisionRequestd& request, const fcl::Options& options, fcl::Scratch& scratch) {
+  ::fcl::CollisionResultd result;
+  Outcome o;
+  const Status s = fcl::collide(&mesh, &shape, request, result, options, scratch, &o.report);
+  EXPECT_TRUE(s.isOk()) << s.message();
+  o.hit = result.isCollision();
+  o.contacts = result.numContacts();
+  if (o.contacts > 0) o.triangle = static_cast<int>(result.getContact(0).b1);
+  return o;
+}
+
+// The core's support shape the adapter queries for `shape` (the test
+// doubles of fcl_test_support.h, bit for bit the adapter's).
+std::unique_ptr<SupportShape> coreShape(const ShapeCase& shape, const ::fcl::CollisionGeometryd& geometry) {
+  switch (shape.kind) {
+    case Kind::kCylinder: return std::make_unique<CylinderShape>(Cylinder{shape.dims.x(), 0.5 * shape.dims.y()});
+    case Kind::kCone: return std::make_unique<TestCone>(shape.dims.x(), shape.dims.y());
+    case Kind::kEllipsoid: return std::make_unique<TestEllipsoid>(shape.dims);
+    case Kind::kConvex:
+      return std::make_unique<TestConvex>(static_cast<const ::fcl::Convexd&>(geometry).getVertices());
+    default: return nullptr;
+  }
+}
+
+// Whether some candidate near the shape, queried alone, gives a contact.
+bool anyCandidateTouches(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose, double reach,
+                         const QuerySettings& settings, QueryScratch& scratch, std::vector<CandidateTriangle>& candidates,
+                         std::vector<Contact>& contacts) {
+  const MeshInstance instance{&mesh, Pose::identity()};
+  const Vec3 r = Vec3::Constant(reach);
+  EXPECT_TRUE(gatherCandidates(&instance, 1, pose.translation - r, pose.translation + r, settings.key_mode, scratch,
+                               candidates)
+                  .isOk());
+  for (const CandidateTriangle& c : candidates) {
+    EXPECT_TRUE(collideConvexCandidates(shape, pose, &c, 1, settings, scratch, contacts).isOk());
+    if (!contacts.empty()) return true;
+  }
+  return false;
+}
+
+TEST(Boolean, SupportShapesAnswerAsTheContactsQuery) {
+  const SceneMesh scenes_[2] = {flat(), sine()};
+  const char* const names[2] = {"flat", "sine"};
+  int hits = 0, total = 0;
+  for (int k = 0; k < 2; ++k) {
+    const SceneMesh& scene = scenes_[k];
+    TriangleMesh core_mesh;
+    ASSERT_TRUE(core_mesh.build(scene.view()).isOk());
+    QueryScratch core_scratch;
+    std::vector<CandidateTriangle> candidates;
+    std::vector<Contact> core_contacts;
+    auto model = makeModel<::fcl::OBBRSSd>(scene);
+    fcl::ModelCache cache;
+    ASSERT_TRUE(cache.add(model.get()).isOk());
+    const fcl::Options plain;
+    fcl::Options cached;
+    cached.cache = &cache;
+    fcl::Options touching;  // a contact distance: contacts of shapes not yet touching
+    touching.settings.contact_distance = 0.02;
+    for (const ShapeCase& shape : allShapes()) {
+      if (shape.kind == Kind::kSphere || shape.kind == Kind::kCapsule || shape.kind == Kind::kBox) continue;
+      const auto geometry = shape.make();
+      const auto core_shape = coreShape(shape, *geometry);
+      ASSERT_NE(core_shape, nullptr);
+      const double h = shape.halfSize();
+      scenes::Rng rng(900 + 10 * k + static_cast<int>(shape.kind));
+      fcl::Scratch scratch;
+      const int poses = testing::scaled(5000);
+      for (int i = 0; i < poses; ++i) {
+        Pose pose;
+        pose.rotation = rng.rotation();
+        const double x = rng.uniform(0.8, 5.2), y = rng.uniform(0.8, 5.2);
+        // From deep inside (centre well below the surface) to clear above,
+        // most poses touching: the sine terrain stays within +-0.5.
+        const double z = (k == 0 ? 0.0 : rng.uniform(-0.5, 0.5)) + h * rng.uniform(-0.9, 1.5);
+        pose.translation = Vec3(x, y, z);
+        const ::fcl::CollisionObjectd m(model, toTransform(Pose::identity()));
+        const ::fcl::CollisionObjectd s(geometry, toTransform(pose));
+        const std::string config = std::string(names[k]) + " " + shape.name + " pose " + std::to_string(i) +
+                                   " at " + testing::str(pose.translation) + " (rng seed " +
+                                   std::to_string(900 + 10 * k + static_cast<int>(shape.kind)) + ")";
+        for (const fcl::Options* options : {&plain, static_cast<const fcl::Options*>(&cached), static_cast<const fcl::Options*>(&touching)}) {
+          const Outcome full = run(m, s, ::fcl::CollisionRequestd(100, true), *options, scratch);
+          const Outcome check = run(m, s, ::fcl::CollisionRequestd(1, false), *options, scratch);
+          EXPECT_EQ(check.hit, full.hit) << config << (options == &cached ? " (cached)" : "")
+                                         << (options == &touching ? " (contact distance 0.02)" : "");
+          // Before the fallback (FCL's own test, which would hide a wrong
+          // answer of the pipeline): a contact from the pipeline exactly
+          // when a candidate alone gives one.
+          const bool alone = anyCandidateTouches(core_mesh, *core_shape, pose,
+                                                 shape.halfDiagonal() + options->settings.contact_distance,
+                                                 options->settings, core_scratch, candidates, core_contacts);
+          EXPECT_EQ(check.report.contacts > 0 && check.report.through_contacts == 0, alone) << config;
+          EXPECT_LE(check.contacts, 1u) << config;
+          if (check.hit) {
+            EXPECT_GE(check.triangle, 0) << config;
+            EXPECT_LT(check.triangle, static_cast<int>(scene.triangleCount())) << config;
+          }
+          hits += alone;
+          ++total;
+        }
+        if (::testing::Test::HasFailure()) return;
+      }
+    }
+  }
+  // Mostly in contact, not all: both answers are exercised.
+  EXPECT_GT(hits, total / 4);
+  EXPECT_LT(hits, total * 19 / 20);
+}
+
+}  // namespace
+}  // namespace meshcontact::fcltest
