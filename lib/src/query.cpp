@@ -236,6 +236,15 @@ void sphereContacts(const Sphere& sphere, const CandidateTriangle* candidates, s
 
 }  // namespace
 
+Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t count, const Sphere& bound,
+                                  KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
+  out.clear();
+  const Status s = checkSphere(bound);
+  if (!s) return s;
+  const Vec3 extent = Vec3::Constant(bound.radius);
+  return gather(instances, count, bound.center - extent, bound.center + extent, &bound, key_mode, scratch, out);
+}
+
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
                                const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts) {

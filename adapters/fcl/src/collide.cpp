@@ -342,7 +342,13 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     // The compact copy of the hierarchy: the core's own midphase (which also
     // sets the keys), on the query volume's bounds.
     const MeshInstance instance{compact, Pose::identity()};
-    s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
+    // A sphere, or collision checking (the ball tightened above): only the
+    // triangles near the ball, as the walk of FCL's tree below keeps.
+    if (volume.ball_only || checking)
+      s = gatherCandidatesNearSphere(&instance, 1, Sphere{volume.center, volume.radius}, options.settings.key_mode,
+                                     sc.query, sc.candidates);
+    else
+      s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
     if (!s) return s;
     if (checking) {
       // Nearest the query's centre first (as the walk below): contact is

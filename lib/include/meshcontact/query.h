@@ -73,6 +73,15 @@ struct Sphere {
   double radius = 0.0;
 };
 
+/// Stage 1 for a ball-shaped query: gatherCandidates on the ball's bounding
+/// box, keeping only the triangles whose (outward-rounded) bounds are within
+/// `bound.radius` of `bound.center` (query frame): on a floor about half the
+/// box's triangles only overlap its corners. Same order and keys as
+/// gatherCandidates. Errors: those of gatherCandidates, and kInvalidShape for
+/// a non-finite centre or a negative or non-finite radius.
+Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t count, const Sphere& bound,
+                                  KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out);
+
 /// Stage 2 for a sphere: per-triangle closest points, then the filter.
 /// Replaces `contacts` (no fixed capacity; nothing is dropped except by the
 /// filter, and the trace says why). The result does not depend on the order
