@@ -1,0 +1,84 @@
+// gatherCandidatesNearSphere: the midphase pruned by a ball. Its candidates
+// are gatherCandidates' on the ball's bounding box, in the same order, minus
+// only triangles that cannot reach the ball; every triangle the ball touches
+// is kept (checked against the exact closest point). Bad balls are errors.
+#include "test_support.h"
+
+#include <cmath>
+#include <limits>
+
+namespace meshcontact {
+namespace {
+
+TEST(GatherNearSphere, SubsetOfTheBoxQueryKeepingEveryTouchedTriangle) {
+  const TriangleMesh terrain = testing::buildMesh(scenes::sineTerrain(24, 24, 0.5, 0.4, 3.0, 7));
+  const TriangleMesh floor = testing::buildMesh(scenes::flatFloor(16, 16, 0.5, 8));
+  scenes::Rng rng(11);
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> box, ball;
+  std::size_t pruned = 0, kept = 0;
+  for (const TriangleMesh* mesh : {&terrain, &floor}) {
+    Pose pose;
+    pose.rotation = rng.rotation();
+    pose.translation = Vec3(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
+    for (const Pose& p : {Pose::identity(), pose}) {
+      const MeshInstance instance{mesh, p};
+      for (int i = 0; i < testing::scaled(2000); ++i) {
+        const Vec3 local(rng.uniform(0.5, 7.5), rng.uniform(0.5, 7.5), rng.uniform(-0.6, 0.9));
+        const Sphere bound{p.apply(local), rng.uniform(0.05, 1.2)};
+        const Vec3 extent = Vec3::Constant(bound.radius);
+        ASSERT_TRUE(gatherCandidates(&instance, 1, bound.center - extent, bound.center + extent,
+                                     KeyMode::kVertexIndex, scratch, box)
+                        .isOk());
+        ASSERT_TRUE(gatherCandidatesNearSphere(&instance, 1, bound, KeyMode::kVertexIndex, scratch, ball).isOk());
+        // Same order: ball is a subsequence of box, with the same vertices and keys.
+        std::size_t j = 0;
+        for (const CandidateTriangle& c : ball) {
+          while (j < box.size() && box[j].triangle != c.triangle) ++j;
+          ASSERT_LT(j, box.size()) << "triangle " << c.triangle << " not in the box query, or out of order";
+          for (int k = 0; k < 3; ++k) {
+            EXPECT_EQ(c.vertices[k], box[j].vertices[k]);
+            EXPECT_EQ(c.keys[k], box[j].keys[k]);
+          }
+          ++j;
+        }
+        // Every triangle of the box query that the ball touches is kept.
+        std::size_t b = 0;
+        for (const CandidateTriangle& c : box) {
+          const Vec3 q = closestPointOnTriangle(bound.center, c.vertices[0], c.vertices[1], c.vertices[2]).point;
+          const bool touches = (q - bound.center).norm() <= bound.radius;
+          const bool in_ball = b < ball.size() && ball[b].triangle == c.triangle;
+          if (in_ball) ++b;
+          if (touches) {
+            EXPECT_TRUE(in_ball) << "touched triangle " << c.triangle << " dropped";
+          }
+        }
+        kept += ball.size();
+        pruned += box.size() - ball.size();
+      }
+    }
+  }
+  std::printf("gatherCandidatesNearSphere: %zu candidates kept, %zu of the box query's pruned\n", kept, pruned);
+  EXPECT_GT(pruned, kept / 10);  // the pruning does something on these scenes
+}
+
+TEST(GatherNearSphere, BadBallsAreErrors) {
+  const TriangleMesh floor = testing::buildMesh(scenes::flatFloor(4, 4, 0.5, 9));
+  const MeshInstance instance{&floor, Pose::identity()};
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> out(3);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Sphere& bad : {Sphere{Vec3(1, 1, 0), -0.1}, Sphere{Vec3(1, 1, 0), nan}, Sphere{Vec3(nan, 1, 0), 0.5},
+                            Sphere{Vec3(1, 1, 0), std::numeric_limits<double>::infinity()}}) {
+    const Status s = gatherCandidatesNearSphere(&instance, 1, bad, KeyMode::kAuto, scratch, out);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << s.message();
+    EXPECT_FALSE(s.message().empty());
+    EXPECT_TRUE(out.empty());
+  }
+  // A point (radius 0) is a valid ball.
+  EXPECT_TRUE(gatherCandidatesNearSphere(&instance, 1, Sphere{Vec3(1, 1, 0), 0.0}, KeyMode::kAuto, scratch, out).isOk());
+  EXPECT_FALSE(out.empty());
+}
+
+}  // namespace
+}  // namespace meshcontact
