@@ -893,13 +893,16 @@ Status ConvexContactProbe::prepare(const SupportShape& shape, const Pose& pose, 
 // its feature (nothing is voided before the first patch), and the manifold
 // reduction keeps at least one point of every manifold, so the query has a
 // contact exactly when the last pass's patch is a contact with a point.
-Status ConvexContactProbe::touches(const CandidateTriangle& candidate, bool& contact) const {
+// predict_contact: touches() (a deeper pass whose outcome is certainly a
+// contact ends the replay there, with no contact geometry).
+Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predict_contact, bool& contact,
+                                  Contact* deepest) const {
   contact = false;
   if (shape_ == nullptr) return {ErrorCode::kInvalidShape, "ConvexContactProbe: prepare() has not succeeded"};
   Counters counters;
   ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
   narrowphase.predict_intersection = true;
-  narrowphase.predict_contact = true;
+  narrowphase.predict_contact = predict_contact;
   detail::Patch p;
   detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
   for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
@@ -910,28 +913,16 @@ Status ConvexContactProbe::touches(const CandidateTriangle& candidate, bool& con
     if (counters.support_not_finite || counters.predicted_contact || !counters.core_intersects) break;
   }
   if (counters.support_not_finite) return {ErrorCode::kInvalidShape, kNotFiniteSupport};
-  contact = counters.predicted_contact || patchContact(outcome, p, candidate, nullptr);
+  contact = counters.predicted_contact || patchContact(outcome, p, candidate, deepest);
   return Status::ok();
 }
 
+Status ConvexContactProbe::touches(const CandidateTriangle& candidate, bool& contact) const {
+  return replay(candidate, true, contact, nullptr);
+}
+
 Status ConvexContactProbe::check(const CandidateTriangle& candidate, bool& contact, Contact* deepest) const {
-  contact = false;
-  if (shape_ == nullptr) return {ErrorCode::kInvalidShape, "ConvexContactProbe: prepare() has not succeeded"};
-  Counters counters;
-  ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
-  narrowphase.predict_intersection = true;
-  detail::Patch p;
-  detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
-  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
-    narrowphase.scale = scale;
-    counters.core_intersects = false;
-    p.face_count = 0;
-    outcome = narrowphase(candidate, p);
-    if (counters.support_not_finite || !counters.core_intersects) break;
-  }
-  if (counters.support_not_finite) return {ErrorCode::kInvalidShape, kNotFiniteSupport};
-  contact = patchContact(outcome, p, candidate, deepest);
-  return Status::ok();
+  return replay(candidate, false, contact, deepest);
 }
 
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,

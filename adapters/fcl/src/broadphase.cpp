@@ -54,10 +54,9 @@ bool BroadphaseCollector::callback(::fcl::CollisionObjectd* o1, ::fcl::Collision
   const ::fcl::CollisionGeometryd* g1 = o1 ? o1->collisionGeometry().get() : nullptr;
   const ::fcl::CollisionGeometryd* g2 = o2 ? o2->collisionGeometry().get() : nullptr;
   const std::uint32_t seq = impl.next_seq++;
-  if (!impl.request.enable_cost && detail::describeMesh(g1, mesh) && detail::describeShape(g2, shape))
-    impl.pairs.push_back({o2, o1, seq, true});
-  else if (!impl.request.enable_cost && detail::describeShape(g1, shape) && detail::describeMesh(g2, mesh))
-    impl.pairs.push_back({o1, o2, seq, true});
+  bool mesh_first = false;
+  if (!impl.request.enable_cost && detail::classifyPair(g1, g2, mesh, shape, mesh_first))
+    impl.pairs.push_back(mesh_first ? Impl::Pair{o2, o1, seq, true} : Impl::Pair{o1, o2, seq, true});  // (shape, mesh)
   else
     impl.pairs.push_back({o1, o2, seq, false});
   return false;  // the grouped queries need every pair first

@@ -87,6 +87,17 @@ void convertContacts(const std::vector<Contact>& contacts, const Pose& to_world,
   }
 }
 
+Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deepest, double depth) {
+  Contact out;
+  out.point = deepest;
+  out.normal = n;
+  out.depth = std::max(depth, 0.0);
+  out.mesh = c.mesh;
+  out.triangle = c.triangle;
+  out.feature = Feature::face();
+  return out;
+}
+
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                     std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out) {
   bool found = false;
@@ -122,12 +133,7 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
         continue;
     }
     found = true;
-    out.point = deepest;
-    out.normal = n;
-    out.depth = std::max(depth, 0.0);
-    out.mesh = c.mesh;
-    out.triangle = c.triangle;
-    out.feature = Feature::face();
+    out = planeContact(c, n, deepest, depth);
   }
   return found;
 }
@@ -231,13 +237,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   MeshDesc mesh;
   ShapeDesc shape;
   bool mesh_first = true;
-  if (detail::describeMesh(g1, mesh) && detail::describeShape(g2, shape)) {
-    mesh_first = true;
-  } else if (detail::describeShape(g1, shape) && detail::describeMesh(g2, mesh)) {
-    mesh_first = false;
-  } else {
-    return detail::forward(o1, o2, request, result, rep);
-  }
+  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first)) return detail::forward(o1, o2, request, result, rep);
   // Cost sources are FCL's own output: let FCL compute them.
   if (request.enable_cost) return detail::forward(o1, o2, request, result, rep);
 
@@ -300,14 +300,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
         // point along it, the depth that clears the plane), as the fallback
         // builds. probe->check() would give the exact one.
         status = probe->touches(c, hit);
-        if (status && hit) {
-          found.point = lowest;
-          found.normal = n;
-          found.depth = std::max(depth, 0.0);
-          found.mesh = c.mesh;
-          found.triangle = c.triangle;
-          found.feature = Feature::face();
-        }
+        if (status && hit) found = detail::planeContact(c, n, lowest, depth);
         return !status || hit;
       }
       status = detail::collideCandidates(shape, pose, &c, 1, options.settings, sc.query, sc.contacts);

@@ -155,6 +155,23 @@ struct MeshDesc {
 /// True when `g` is a BVHModel with one of the supported BVs (the model's
 /// state is checked by checkModel).
 bool describeMesh(const ::fcl::CollisionGeometryd* g, MeshDesc& out);
+
+/// Which of (g1, g2) is the mesh and which the shape: true with `mesh_first`
+/// set when one is a BVHModel the pipeline reads and the other a shape it
+/// handles (in either order); false for any other pair.
+inline bool classifyPair(const ::fcl::CollisionGeometryd* g1, const ::fcl::CollisionGeometryd* g2, MeshDesc& mesh,
+                         ShapeDesc& shape, bool& mesh_first) {
+  if (describeMesh(g1, mesh) && describeShape(g2, shape)) {
+    mesh_first = true;
+    return true;
+  }
+  if (describeShape(g1, shape) && describeMesh(g2, mesh)) {
+    mesh_first = false;
+    return true;
+  }
+  return false;
+}
+
 /// kMeshNotBuilt unless the model is a finished triangle model.
 Status checkModel(const MeshDesc& mesh, const char* what);
 /// FCL's vertex and triangle arrays of the model.
@@ -211,6 +228,11 @@ Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& o
 /// (through a unit quaternion) only when it is off by more than 1e-12, so
 /// that exact rotations keep their bits.
 Pose relativePose(const Pose& mesh, const Pose& shape);
+
+/// A triangle's plane contact: its face normal `n` (from the mesh toward
+/// the shape), the shape's deepest point along -n, the depth that clears
+/// the plane (clamped at 0), the face feature.
+Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deepest, double depth);
 
 /// The fallback of Report::through_contacts, for a query whose pipeline
 /// gave no contact: among the candidates whose plane the shape crosses,

@@ -66,11 +66,7 @@ Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjec
   MeshDesc mesh;
   ShapeDesc shape;
   bool mesh_first = true;
-  if (detail::describeMesh(g1, mesh) && detail::describeShape(g2, shape)) {
-    mesh_first = true;
-  } else if (detail::describeShape(g1, shape) && detail::describeMesh(g2, mesh)) {
-    mesh_first = false;
-  } else {
+  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first)) {
     return {ErrorCode::kInvalidShape,
             "postFilter needs a BVHModel (AABB, OBB, RSS, kIOS, OBBRSS) and a sphere, capsule, box, cylinder, "
             "cone, ellipsoid or convex"};

@@ -269,6 +269,7 @@ class ConvexContactProbe {
   Status check(const CandidateTriangle& candidate, bool& contact, Contact* deepest = nullptr) const;
 
  private:
+  Status replay(const CandidateTriangle& candidate, bool predict_contact, bool& contact, Contact* deepest) const;
   const SupportShape* shape_ = nullptr;
   Pose pose_;
   Vec3 center_ = Vec3::Zero();
