@@ -19,15 +19,11 @@ namespace meshcontact::detail {
 
 namespace {
 
-bool sameSign(double a, double b) { return (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0); }
+// Evaluated without short circuits: the signs are data, and a branch per
+// comparison mispredicts on them (this runs at every GJK iteration).
+bool sameSign(double a, double b) { return ((a > 0.0) & (b > 0.0)) | ((a < 0.0) & (b < 0.0)); }
 
-// The closest point's support: indices into the caller's simplex and weights.
-struct Sub {
-  int idx[4];
-  double lambda[4];
-  int size = 0;
-  Vec3 point = Vec3::Zero();
-};
+using Sub = SubSimplex;
 
 Sub vertexOnly(const Vec3* w, int i) {
   Sub r;
@@ -46,13 +42,12 @@ Sub s1d(const Vec3* w, int i, int j) {
   const double tt = t.squaredNorm();
   if (!(tt > 0.0)) return vertexOnly(w, i);
   const Vec3 p0 = a - (a.dot(t) / tt) * t;  // the origin projected on the line
-  int k = 0;
-  for (int c = 1; c < 3; ++c)
-    if (std::abs(t[c]) > std::abs(t[k])) k = c;
+  const double ax = std::abs(t[0]), ay = std::abs(t[1]), az = std::abs(t[2]);
+  const int k = az > (ay > ax ? ay : ax) ? 2 : (ay > ax ? 1 : 0);  // the first largest |t[k]|
   const double mu = a[k] - b[k];
   const double ca = p0[k] - b[k];  // weight of a, times mu
   const double cb = a[k] - p0[k];  // weight of b, times mu
-  if (sameSign(mu, ca) && sameSign(mu, cb)) {
+  if (sameSign(mu, ca) & sameSign(mu, cb)) {
     Sub r;
     r.idx[0] = i, r.idx[1] = j;
     r.lambda[0] = ca / mu, r.lambda[1] = cb / mu;
@@ -77,16 +72,15 @@ Sub s2d(const Vec3* w, int i, int j, int k) {
   if (nn > 0.0) {
     const Vec3 p0 = (a.dot(n) / nn) * n;  // the origin projected on the plane
     // The coordinate plane where the triangle's projection is largest.
-    int x = 0;
-    for (int q = 1; q < 3; ++q)
-      if (std::abs(n[q]) > std::abs(n[x])) x = q;
+    const double nx = std::abs(n[0]), ny = std::abs(n[1]), nz = std::abs(n[2]);
+    const int x = nz > (ny > nx ? ny : nx) ? 2 : (ny > nx ? 1 : 0);  // the first largest |n[x]|
     const int u = (x + 1) % 3, v = (x + 2) % 3;
     auto area = [&](const Vec3& p, const Vec3& q, const Vec3& r) {
       return (q[u] - p[u]) * (r[v] - p[v]) - (q[v] - p[v]) * (r[u] - p[u]);
     };
     const double mu = area(a, b, c);
     const double ca = area(p0, b, c), cb = area(a, p0, c), cc = area(a, b, p0);
-    if (sameSign(mu, ca) && sameSign(mu, cb) && sameSign(mu, cc)) {
+    if (sameSign(mu, ca) & sameSign(mu, cb) & sameSign(mu, cc)) {
       Sub r;
       r.idx[0] = i, r.idx[1] = j, r.idx[2] = k;
       r.lambda[0] = ca / mu, r.lambda[1] = cb / mu, r.lambda[2] = cc / mu;
@@ -111,11 +105,10 @@ double det3(const Vec3& a, const Vec3& b, const Vec3& c) { return a.dot(b.cross(
 
 }  // namespace
 
-SimplexResult reduceSimplex(Simplex& s, Vec3& closest, double length_scale) {
-  (void)length_scale;
+SimplexResult closestSubSimplex(const Simplex& s, SubSimplex& r) {
   Vec3 w[4];
   for (int i = 0; i < s.size; ++i) w[i] = s.v[i].w;
-  Sub r;
+  r = SubSimplex();
   switch (s.size) {
     case 1: r = vertexOnly(w, 0); break;
     case 2: r = s1d(w, 0, 1); break;
@@ -126,7 +119,7 @@ SimplexResult reduceSimplex(Simplex& s, Vec3& closest, double length_scale) {
       const double c[4] = {-det3(w[1], w[2], w[3]), det3(w[0], w[2], w[3]), -det3(w[0], w[1], w[3]),
                            det3(w[0], w[1], w[2])};
       const double det = c[0] + c[1] + c[2] + c[3];
-      if (sameSign(det, c[0]) && sameSign(det, c[1]) && sameSign(det, c[2]) && sameSign(det, c[3]))
+      if (sameSign(det, c[0]) & sameSign(det, c[1]) & sameSign(det, c[2]) & sameSign(det, c[3]))
         return SimplexResult::kContainsOrigin;
       // The origin is outside the faces whose cofactor disagrees with the
       // determinant (all four when the tetrahedron is flat).
@@ -144,14 +137,6 @@ SimplexResult reduceSimplex(Simplex& s, Vec3& closest, double length_scale) {
     }
   }
   if (r.size == 0) return SimplexResult::kDegenerate;
-  SimplexVertex kept[4];
-  for (int i = 0; i < r.size; ++i) kept[i] = s.v[r.idx[i]];
-  for (int i = 0; i < r.size; ++i) {
-    s.v[i] = kept[i];
-    s.lambda[i] = r.lambda[i];
-  }
-  s.size = r.size;
-  closest = r.point;
   return SimplexResult::kClosest;
 }
 

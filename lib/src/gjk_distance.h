@@ -40,10 +40,32 @@ enum class SimplexResult : std::uint8_t {
   kDegenerate,      // the newest vertex adds no dimension: keep the previous simplex
 };
 
-/// Replaces the simplex by the smallest sub-simplex that holds its point
-/// closest to the origin, fills `lambda`, and writes that point to `closest`.
-/// The newest vertex is the last one. `length_scale` sets what "flat" means.
-SimplexResult reduceSimplex(Simplex& simplex, Vec3& closest, double length_scale);
+/// The smallest sub-simplex that holds a simplex's point closest to the
+/// origin: its vertices (indices into the simplex), their weights, and that
+/// point.
+struct SubSimplex {
+  int idx[4];
+  double lambda[4];
+  int size = 0;
+  Vec3 point = Vec3::Zero();
+};
+
+/// Finds the sub-simplex of `simplex` closest to the origin, leaving the
+/// simplex as it is (GJK keeps it unchanged when the step makes no
+/// progress, and copying a simplex costs more than the step's arithmetic).
+/// The newest vertex is the last one.
+SimplexResult closestSubSimplex(const Simplex& simplex, SubSimplex& out);
+
+/// Replaces the simplex by `sub` (from closestSubSimplex on it) and its weights.
+inline void keepSubSimplex(Simplex& simplex, const SubSimplex& sub) {
+  SimplexVertex kept[4];
+  for (int i = 0; i < sub.size; ++i) kept[i] = simplex.v[sub.idx[i]];
+  for (int i = 0; i < sub.size; ++i) {
+    simplex.v[i] = kept[i];
+    simplex.lambda[i] = sub.lambda[i];
+  }
+  simplex.size = sub.size;
+}
 
 enum class GjkStatus : std::uint8_t {
   kSeparated,     // distance > 0 with witness points
@@ -145,25 +167,25 @@ GjkResult gjkDistance(const SupportA& support_a, const SupportB& support_b, cons
     bool duplicate = false;
     for (int i = 0; i < s.size; ++i) duplicate |= (s.v[i].w == w.w);
     if (duplicate) break;  // no new vertex: v is as close as this simplex gets
-    const Simplex previous = s;
     s.v[s.size++] = w;
-    Vec3 closest;
-    const SimplexResult res = reduceSimplex(s, closest, length_scale);
+    SubSimplex sub;
+    const SimplexResult res = closestSubSimplex(s, sub);
     if (res == SimplexResult::kContainsOrigin) {
       r.status = GjkStatus::kIntersecting;
       r.v = v;
       return r;
     }
     if (res == SimplexResult::kDegenerate) {
-      s = previous;
+      --s.size;  // the previous simplex, untouched
       break;
     }
-    const double c2 = closest.squaredNorm();
+    const double c2 = sub.point.squaredNorm();
     if (!(c2 < v2)) {  // no progress (rounding): keep the previous simplex
-      s = previous;
+      --s.size;
       break;
     }
-    v = closest;
+    keepSubSimplex(s, sub);
+    v = sub.point;
     v2 = c2;
   }
   if (r.iterations >= settings.max_iterations) r.converged = false;
