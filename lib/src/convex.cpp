@@ -561,14 +561,19 @@ struct ConvexNarrowphase {
     int side = 0;  // SideMonitor's verdict
     // (Initialized in place: a GjkResult holds its simplex, hundreds of bytes.)
     // One call site per instance, so that the compiler inlines GJK (and the
-    // support calls in it) into each, as for a single caller.
+    // support calls in it) into each, as for a single caller. GJK starts
+    // along w (from the triangle's point nearest the center toward the
+    // center), not along n: beside the triangle under the shape the closest
+    // direction leans toward w. On curved parts, where GJK converges only
+    // linearly, that start cut a cylinder query's instructions by a quarter
+    // (callgrind, random poses on a flat floor; a hull's by a tenth).
     detail::GjkResult g = [&] {
       if constexpr (kChecking) {
         const bool monitored = predict_contact && scale < 1.0 && counters->full_meets;
-        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk,
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + std::sqrt(longest2), gjk,
                                    SideMonitor{n, 1e-9 * size, monitored, &side});
       } else {
-        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, n, size + std::sqrt(longest2), gjk);
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + std::sqrt(longest2), gjk);
       }
     }();
     if (kChecking && g.stopped) {
