@@ -183,8 +183,7 @@ struct SphereNarrowphase {
     }
     // Not degenerate: |ab x ac|^2 > 1e-24 * longest^4 >= 1e-24, and the
     // scaled components are below 2, so the length is normal and finite.
-    const Vec3 cross = edges.ab.cross(edges.ac);
-    const Vec3 n = cross / std::sqrt(cross.squaredNorm());
+    const Vec3 n = edges.cross / std::sqrt(edges.cross.squaredNorm());
     const Vec3 rel = center - a;
     const double height = n.dot(rel);
     if (height < 0.0) {  // centre behind the plane

@@ -23,6 +23,7 @@ struct ScaledEdges {
   double inv_scale = 0.0;  // 1 / scale, exact
   Vec3 ab = Vec3::Zero();  // (b - a) / scale
   Vec3 ac = Vec3::Zero();  // (c - a) / scale
+  Vec3 cross = Vec3::Zero();  // ab x ac: the (scaled) normal, for callers that need it next
   /// |ab x ac| <= 1e-12 * (longest edge)^2, or a zero / non-finite scale:
   /// no usable normal. Compared squared; the longest scaled edge is >= 1, so
   /// the bound cannot underflow. !(>) so that NaN counts as degenerate.
@@ -51,7 +52,8 @@ inline ScaledEdges scaledEdges(const Vec3& a, const Vec3& b, const Vec3& c) {
   e.ab = ab * e.inv_scale;
   e.ac = ac * e.inv_scale;
   const double longest2 = std::max({e.ab.squaredNorm(), e.ac.squaredNorm(), (e.ac - e.ab).squaredNorm()});
-  e.degenerate = !(e.ab.cross(e.ac).squaredNorm() > 1e-24 * longest2 * longest2);
+  e.cross = e.ab.cross(e.ac);
+  e.degenerate = !(e.cross.squaredNorm() > 1e-24 * longest2 * longest2);
   return e;
 }
 
