@@ -20,12 +20,13 @@ Scratch& Scratch::operator=(Scratch&&) noexcept = default;
 
 namespace detail {
 
-Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out) {
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out, double* orthonormality_error) {
   out.rotation = tf.linear();
   out.translation = tf.translation();
   if (!out.rotation.allFinite() || !out.translation.allFinite())
     return {ErrorCode::kInvalidPose, std::string(what) + ": transform has a non-finite entry"};
   const double err = (out.rotation.transpose() * out.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
+  if (orthonormality_error) *orthonormality_error = err;
   if (!(err <= 1e-6) || !(out.rotation.determinant() > 0.0))
     return {ErrorCode::kInvalidPose, std::string(what) +
                                          ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
@@ -33,10 +34,17 @@ Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& o
   return Status::ok();
 }
 
+namespace {
+
+void orthonormalizeIfOff(Mat3& rotation, double err) {
+  if (err > 1e-12) rotation = Eigen::Quaterniond(rotation).normalized().toRotationMatrix();
+}
+
+}  // namespace
+
 Pose relativePose(const Pose& mesh, const Pose& shape) {
   Pose p = mesh.inverse() * shape;
-  const double err = (p.rotation.transpose() * p.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
-  if (err > 1e-12) p.rotation = Eigen::Quaterniond(p.rotation).normalized().toRotationMatrix();
+  orthonormalizeIfOff(p.rotation, (p.rotation.transpose() * p.rotation - Mat3::Identity()).cwiseAbs().maxCoeff());
   return p;
 }
 
@@ -45,8 +53,22 @@ Status checkPair(const MeshDesc& mesh, const ::fcl::CollisionObjectd& mesh_objec
                  Pose& mesh_pose, Pose& shape_in_model) {
   Status s = checkModel(mesh, mesh_name);
   if (!s) return s;
+  const ::fcl::Transform3d& mesh_tf = mesh_object.getTransform();
+  if (mesh_tf.linear() == Mat3::Identity() && mesh_tf.translation() == Vec3::Zero()) {
+    // The mesh at the world's origin (a static environment, the common
+    // case): the shape's pose is its pose in the model frame. relativePose
+    // would give the same (its products with exact ones and zeros are
+    // exact, up to the sign of a zero), with the same re-orthonormalization,
+    // for one rotation check instead of three.
+    mesh_pose = Pose::identity();
+    double err = 0.0;
+    s = poseFromTransform(shape_object.getTransform(), shape_name, shape_in_model, &err);
+    if (!s) return s;
+    orthonormalizeIfOff(shape_in_model.rotation, err);
+    return Status::ok();
+  }
   Pose shape_pose;
-  s = poseFromTransform(mesh_object.getTransform(), mesh_name, mesh_pose);
+  s = poseFromTransform(mesh_tf, mesh_name, mesh_pose);
   if (!s) return s;
   s = poseFromTransform(shape_object.getTransform(), shape_name, shape_pose);
   if (!s) return s;
@@ -109,6 +131,9 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     const Vec3& a = c.vertices[0];
     const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
     if (n.isZero()) continue;
+    // A sphere's test below (its centre in front of the plane), first: it
+    // skips most candidates, and nothing before it has an effect.
+    if (confirm && shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
     const Vec3 deepest = supportPoint(shape, pose, -n);
     const double depth = n.dot(a - deepest);  // how far the shape must move along n to clear the plane
     if (depth < -band) continue;              // wholly in front of the plane: the pipeline had it

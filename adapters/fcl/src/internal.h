@@ -197,10 +197,10 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 
 /// Appends to `out` every triangle whose leaf BV overlaps the ball of a
 /// sphere's `volume`, or, for other shapes, whose bounds overlap the
-/// volume's bounds (exactly the core's gatherCandidates selection, so the
-/// core's result is reproduced even where it depends on triangles that do
-/// not touch the shape), with its vertices mapped by `to_query` (bitwise
-/// copies when it is the identity),
+/// volume's bounds and reaches the ball around them (the core's
+/// gatherCandidates selection less the triangles outside that ball, see
+/// model.cpp), with its vertices mapped by `to_query` (bitwise copies when
+/// it is the identity),
 /// mesh index `mesh_index`, keys unset. Degenerate triangles are skipped
 /// (as the core's midphase does: they have no normal). Errors:
 /// kIndexOutOfRange.
@@ -222,8 +222,10 @@ Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& 
 /// farther than 1e-6 from orthonormal (|R^T R - I|, max entry) or with
 /// det <= 0. FCL accepts any matrix, and rotations converted from float
 /// quaternions are off by ~1e-7, hence a looser tolerance than the core's
-/// 1e-9; relativePose() hands the core an orthonormal rotation.
-Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out);
+/// 1e-9; relativePose() hands the core an orthonormal rotation. The
+/// measured |R^T R - I| goes to `orthonormality_error` when it is given.
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out,
+                         double* orthonormality_error = nullptr);
 /// mesh^-1 * shape: the shape's pose in the model frame, re-orthonormalized
 /// (through a unit quaternion) only when it is off by more than 1e-12, so
 /// that exact rotations keep their bits.

@@ -68,11 +68,16 @@ bool ballOverlaps(const ::fcl::kIOSd& b, const Vec3& c, double r) {
   return ballOverlapsObb(b.obb, c, r);
 }
 
-// --- Non-ball queries select exactly the triangles the core's midphase
-// selects (gatherCandidates): those whose bounds overlap the query's
-// axis-aligned bounds. Inner nodes are tested conservatively against those
-// bounds (the node's own axis-aligned bounds: 3 separating axes, no rotation
-// between two boxes to compute); leaves by the triangle's bounds.
+// --- Non-ball queries select the triangles the core's midphase selects
+// (gatherCandidates): those whose bounds overlap the query's axis-aligned
+// bounds. Inner nodes are tested conservatively against those bounds (the
+// node's own axis-aligned bounds: 3 separating axes, no rotation between two
+// boxes to compute); leaves by the triangle's bounds. One difference: every
+// node must also reach the ball around the bounds (the walk's first test),
+// so a triangle whose bounds overlap the query's while the triangle itself
+// lies outside that ball is skipped. It is outside the bounds, so it does
+// not touch the shape within the contact distance; the agreement tests
+// (tests/fcl) check that the contacts still equal the core's.
 bool boxBoundsOverlap(const Mat3& axis, const Vec3& center, const Vec3& half, const QueryVolume& q) {
   const Vec3 extent = axis.cwiseAbs() * half;
   return ((center - extent).array() <= q.hi.array()).all() && ((center + extent).array() >= q.lo.array()).all();
