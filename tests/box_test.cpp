@@ -220,24 +220,9 @@ TEST(BoxRegions, BeyondContactDistanceAndBehind) {
 
 // --- Consistency with FCL (box-box, GST_LIBCCD) on a tessellated box ---------
 
-SceneMesh tessellatedBox(const Vec3& b, double cell, std::uint64_t seed) {
-  SceneMesh m;
-  scenes::Rng rng(seed);
-  const int nx = static_cast<int>(std::lround(2 * b.x() / cell)), ny = static_cast<int>(std::lround(2 * b.y() / cell)),
-            nz = static_cast<int>(std::lround(2 * b.z() / cell));
-  const Vec3 X(2 * b.x(), 0, 0), Y(0, 2 * b.y(), 0), Z(0, 0, 2 * b.z());
-  scenes::addGridPatch(m, Vec3(b.x(), -b.y(), -b.z()), Y, Z, ny, nz, rng, 0.2);   // +x
-  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Z, Y, nz, ny, rng, 0.2);  // -x
-  scenes::addGridPatch(m, Vec3(-b.x(), b.y(), -b.z()), Z, X, nz, nx, rng, 0.2);   // +y
-  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), X, Z, nx, nz, rng, 0.2);  // -y
-  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), b.z()), X, Y, nx, ny, rng, 0.2);   // +z
-  scenes::addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Y, X, ny, nx, rng, 0.2);  // -z
-  return scenes::weld(m);
-}
-
 TEST(BoxConsistency, TessellatedBoxAgreesWithFcl) {
   const Vec3 half(1.0, 0.8, 0.6);
-  TriangleMesh mesh = testing::buildMesh(tessellatedBox(half, 0.2, 21));
+  TriangleMesh mesh = testing::buildMesh(scenes::tessellatedBox(half, 0.2, 21));
   ASSERT_FALSE(mesh.hasDuplicateVertices());
   QueryScratch scratch;
   std::vector<Contact> contacts;

@@ -3,6 +3,8 @@
 // and the CI test.
 #include "meshcontact_peers/peers.h"
 
+#include <meshcontact_scenes/oracle.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -84,41 +86,7 @@ std::vector<CompareScene> compareScenes(std::uint64_t seed, bool with_terrain_1m
 // contact or invalidate one (a triangle farther than reach is never strictly
 // closer than one within reach), so restricting to the sphere's box is exact.
 
-namespace {
-
-// Closest point of a triangle (own code: plane projection, else the nearest
-// edge segment), as in scenes::SphereOracle.
-struct Closest {
-  Vec3 point;
-  int kind;  // 0 face, 1 edge, 2 vertex
-  std::uint32_t a, b;
-};
-
-Closest closestOnTriangle(const Vec3& p, const Vec3 v[3], const std::uint32_t id[3], const Vec3& n) {
-  const Vec3 proj = p - n * (n.dot(p - v[0]) / n.squaredNorm());
-  bool inside = true;
-  for (int k = 0; k < 3; ++k)
-    if (n.dot((v[(k + 1) % 3] - v[k]).cross(proj - v[k])) < 0.0) inside = false;
-  if (inside) return {proj, 0, 0, 0};
-  Closest best{Vec3::Zero(), -1, 0, 0};
-  double best_d = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 3; ++k) {
-    const Vec3& a = v[k];
-    const Vec3& b = v[(k + 1) % 3];
-    const double t = std::clamp((p - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
-    const Vec3 q = a + t * (b - a);
-    const double d = (p - q).squaredNorm();
-    if (d < best_d) {
-      best_d = d;
-      if (t == 0.0) best = {q, 2, id[k], id[k]};
-      else if (t == 1.0) best = {q, 2, id[(k + 1) % 3], id[(k + 1) % 3]};
-      else best = {q, 1, id[k], id[(k + 1) % 3]};
-    }
-  }
-  return best;
-}
-
-}  // namespace
+using scenes::OracleClosest;
 
 struct LocalSphereOracle::Impl {
   scenes::SceneMesh mesh;  // welded
@@ -134,7 +102,7 @@ struct LocalSphereOracle::Impl {
   mutable std::vector<std::uint32_t> stamp;
   mutable std::uint32_t epoch = 0;
   mutable std::vector<double> dist;
-  mutable std::vector<Closest> cp;
+  mutable std::vector<OracleClosest> cp;
   mutable std::vector<std::uint32_t> near;
 
   template <class F>
@@ -164,12 +132,12 @@ struct LocalSphereOracle::Impl {
   }
 
   // Distance from c to triangle t when front-facing (infinity otherwise).
-  double distanceTo(const Vec3& c, std::uint32_t t, Closest& out) const {
+  double distanceTo(const Vec3& c, std::uint32_t t, OracleClosest& out) const {
     if (degenerate[t]) return std::numeric_limits<double>::infinity();
     const std::uint32_t* id = &mesh.indices[3 * t];
     const Vec3 v[3] = {mesh.vertex(id[0]), mesh.vertex(id[1]), mesh.vertex(id[2])};
     if (normal[t].dot(c - v[0]) < 0.0) return std::numeric_limits<double>::infinity();  // back-facing
-    out = closestOnTriangle(c, v, id, normal[t]);
+    out = scenes::oracleClosestPoint(c, v, id, normal[t]);
     return (c - out.point).norm();
   }
 };
@@ -253,7 +221,7 @@ LocalSphereOracle::~LocalSphereOracle() = default;
 double LocalSphereOracle::nearestDistance(const Vec3& c, double limit) const {
   const Impl& m = *impl_;
   double best = std::numeric_limits<double>::infinity();
-  Closest q;
+  OracleClosest q;
   m.forEachNear(c, limit, [&](std::uint32_t t) { best = std::min(best, m.distanceTo(c, t, q)); });
   return best <= limit ? best : std::numeric_limits<double>::infinity();
 }
@@ -271,7 +239,7 @@ void LocalSphereOracle::validContacts(const Vec3& c, double reach, std::vector<V
   for (std::uint32_t t : m.near) {
     const double d = m.dist[t];
     if (!(d <= reach)) continue;
-    const Closest& q = m.cp[t];
+    const OracleClosest& q = m.cp[t];
     bool ok = true;
     if (q.kind != 0) {
       for (std::uint32_t k = m.ring_start[q.a]; k < m.ring_start[q.a + 1] && ok; ++k) {

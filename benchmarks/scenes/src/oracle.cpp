@@ -5,25 +5,13 @@
 
 namespace meshcontact::scenes {
 
-namespace {
-
-// Independent closest point: project on the plane; if the projection is
-// outside, the nearest of the three edge segments (clamped parameter 0 or 1
-// means a vertex). Deliberately not the library's Voronoi-region code.
-struct Closest {
-  Vec3 point;
-  int kind;  // 0 face, 1 edge, 2 vertex
-  std::uint32_t a, b;  // the feature's vertices (edge: a, b; vertex: a)
-};
-
-Closest closest(const Vec3& p, const Vec3 v[3], const std::uint32_t id[3]) {
-  const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
+OracleClosest oracleClosestPoint(const Vec3& p, const Vec3 v[3], const std::uint32_t id[3], const Vec3& n) {
   const Vec3 proj = p - n * (n.dot(p - v[0]) / n.squaredNorm());
   bool inside = true;
   for (int k = 0; k < 3; ++k)
     if (n.dot((v[(k + 1) % 3] - v[k]).cross(proj - v[k])) < 0.0) inside = false;
   if (inside) return {proj, 0, 0, 0};
-  Closest best{Vec3::Zero(), -1, 0, 0};
+  OracleClosest best{Vec3::Zero(), -1, 0, 0};
   double best_d = INFINITY;
   for (int k = 0; k < 3; ++k) {
     const Vec3& a = v[k];
@@ -41,8 +29,6 @@ Closest closest(const Vec3& p, const Vec3 v[3], const std::uint32_t id[3]) {
   return best;
 }
 
-}  // namespace
-
 SphereOracle::SphereOracle(const SceneMesh& mesh) : mesh_(weld(mesh)) {
   vertex_triangles_.resize(mesh_.vertexCount());
   for (std::size_t t = 0; t < mesh_.triangleCount(); ++t)
@@ -53,7 +39,7 @@ std::vector<Vec3> SphereOracle::validNormals(const Vec3& c, double reach) const 
   const std::size_t count = mesh_.triangleCount();
   // Distance from c to every front-facing triangle (infinity when culled).
   std::vector<double> dist(count, INFINITY);
-  std::vector<Closest> cp(count);
+  std::vector<OracleClosest> cp(count);
   std::vector<Vec3> normals(count);
   for (std::size_t t = 0; t < count; ++t) {
     const std::uint32_t id[3] = {mesh_.indices[3 * t], mesh_.indices[3 * t + 1], mesh_.indices[3 * t + 2]};
@@ -61,14 +47,14 @@ std::vector<Vec3> SphereOracle::validNormals(const Vec3& c, double reach) const 
     const Vec3 n = (v[1] - v[0]).cross(v[2] - v[0]);
     if (n.norm() <= 1e-12 * (v[1] - v[0]).squaredNorm()) continue;  // degenerate
     if (n.dot(c - v[0]) < 0.0) continue;                             // back-facing
-    cp[t] = closest(c, v, id);
+    cp[t] = oracleClosestPoint(c, v, id, n);
     dist[t] = (c - cp[t].point).norm();
     normals[t] = n.normalized();
   }
   std::vector<Vec3> valid;
   for (std::size_t t = 0; t < count; ++t) {
     if (!(dist[t] <= reach)) continue;
-    const Closest& q = cp[t];
+    const OracleClosest& q = cp[t];
     bool ok = true;
     if (q.kind != 0) {
       // Triangles containing the feature: the one-ring of a, filtered to those

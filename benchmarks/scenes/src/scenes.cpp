@@ -200,6 +200,21 @@ SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t
   return twoSlopes(half_extent, slope_deg, cell, seed, -1.0);
 }
 
+SceneMesh tessellatedBox(const Vec3& b, double cell, std::uint64_t seed) {
+  SceneMesh m;
+  Rng rng(seed);
+  const int nx = static_cast<int>(std::lround(2 * b.x() / cell)), ny = static_cast<int>(std::lround(2 * b.y() / cell)),
+            nz = static_cast<int>(std::lround(2 * b.z() / cell));
+  const Vec3 X(2 * b.x(), 0, 0), Y(0, 2 * b.y(), 0), Z(0, 0, 2 * b.z());
+  addGridPatch(m, Vec3(b.x(), -b.y(), -b.z()), Y, Z, ny, nz, rng, 0.2);    // +x
+  addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Z, Y, nz, ny, rng, 0.2);   // -x
+  addGridPatch(m, Vec3(-b.x(), b.y(), -b.z()), Z, X, nz, nx, rng, 0.2);    // +y
+  addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), X, Z, nx, nz, rng, 0.2);   // -y
+  addGridPatch(m, Vec3(-b.x(), -b.y(), b.z()), X, Y, nx, ny, rng, 0.2);    // +z
+  addGridPatch(m, Vec3(-b.x(), -b.y(), -b.z()), Y, X, ny, nx, rng, 0.2);   // -z
+  return weld(m);
+}
+
 SceneMesh bowl(double half_extent, double depth, double cell, std::uint64_t seed, double jitter) {
   SceneMesh mesh;
   Rng rng(seed);

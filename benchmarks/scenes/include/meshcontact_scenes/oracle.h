@@ -14,9 +14,22 @@
 
 #include <meshcontact/contact.h>
 
+#include <cstdint>
 #include <vector>
 
 namespace meshcontact::scenes {
+
+/// The oracles' own closest point of a triangle to p, deliberately not the
+/// library's Voronoi-region code: project on the plane; if the projection is
+/// outside, the nearest of the three edge segments (a clamped parameter of 0
+/// or 1 means a vertex). `v` are the corners, `id` their vertex numbers, `n`
+/// the (unnormalized) face normal (v1 - v0) x (v2 - v0).
+struct OracleClosest {
+  Vec3 point;
+  int kind;            // 0 face, 1 edge, 2 vertex
+  std::uint32_t a, b;  // the feature's vertices (edge: a, b; vertex: a; face: unused)
+};
+OracleClosest oracleClosestPoint(const Vec3& p, const Vec3 v[3], const std::uint32_t id[3], const Vec3& n);
 
 class SphereOracle {
  public:

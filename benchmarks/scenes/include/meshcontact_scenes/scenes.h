@@ -91,6 +91,11 @@ SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t
 /// kinds of internal edge occur.
 SceneMesh bowl(double half_extent, double depth, double cell, std::uint64_t seed, double jitter = 0.2);
 
+/// A closed box [-half, half], centred on the origin, front faces outward:
+/// each face a grid patch (addGridPatch, jitter 0.2) of cells of about
+/// `cell`. Welded, so its edges and corners are shared vertices.
+SceneMesh tessellatedBox(const Vec3& half, double cell, std::uint64_t seed);
+
 /// The terrain used for scaling measurements: sineTerrain with square cells of
 /// kTerrainCell, amplitude kTerrainAmplitude and wavelength kTerrainWavelength
 /// (max slope ~21 degrees), n x n cells with n = round(sqrt(triangles / 2)),
