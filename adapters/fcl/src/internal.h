@@ -180,11 +180,13 @@ const ::fcl::Triangle* modelTriangles(const MeshDesc& mesh);
 int modelVertexCount(const MeshDesc& mesh);
 int modelTriangleCount(const MeshDesc& mesh);
 
-/// The query volume in the model frame: the shape's local box inflated by
-/// the contact distance, as an oriented box and its axis-aligned bounds
-/// (what the core's midphase queries), and a ball: for a sphere the sphere
-/// itself (its candidates are the triangles whose bounding volume reaches
-/// the sphere), otherwise the ball around the bounds.
+/// The query volume in the model frame, each part inflated by the contact
+/// distance: the shape's local box as an oriented box; the shape's
+/// axis-aligned bounds (what the core's midphase queries: from its support
+/// points, those of the oriented box for a box); and a ball: for a sphere
+/// the sphere itself (its candidates are the triangles whose bounding
+/// volume reaches the sphere), otherwise the ball about the box's centre
+/// around the bounds.
 struct QueryVolume {
   Vec3 center;
   Mat3 axes;  // columns: the box's axes in the model frame

@@ -203,7 +203,26 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
   q.lo = q.center - extent;
   q.hi = q.center + extent;
   q.ball_only = shape.kind == ShapeKind::kSphere;
-  q.radius = q.ball_only ? shape.radius + contact_distance : extent.norm();
+  if (q.ball_only) {
+    q.radius = shape.radius + contact_distance;
+    return q;
+  }
+  if (shape.kind != ShapeKind::kBox) {
+    // The rotated local box's bounds are exact for a box only: a tilted
+    // cylinder's reach further out than its rim, by up to sqrt(2) across
+    // the disc. The shape's own bounds (its support points along the six
+    // axis directions, as the core's query takes them) select fewer nodes
+    // and triangles, and the walk's cost is its node visits (cache misses).
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 axis = Vec3::Unit(k);
+      q.hi[k] = supportPoint(shape, shape_in_model, axis)[k] + contact_distance;
+      q.lo[k] = supportPoint(shape, shape_in_model, -axis)[k] - contact_distance;
+    }
+  }
+  // The ball around the bounds, about the box's centre (its farthest corner).
+  q.radius = shape.kind == ShapeKind::kBox
+                 ? extent.norm()
+                 : (q.lo - q.center).cwiseAbs().cwiseMax((q.hi - q.center).cwiseAbs()).norm();
   return q;
 }
 
