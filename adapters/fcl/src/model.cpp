@@ -231,8 +231,8 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
   }
   if (shape.kind != ShapeKind::kBox) {
     // The rotated local box's bounds are exact for a box only: a tilted
-    // cylinder's reach further out than its rim, by up to sqrt(2) across
-    // the disc. The shape's own bounds (its support points along the six
+    // cylinder's box reaches further out than its rim, by up to sqrt(2)
+    // across the disc. The shape's own bounds (its support points along the six
     // axis directions, as the core's query takes them) select fewer nodes
     // and triangles, and the walk's cost is its node visits (cache misses).
     for (int k = 0; k < 3; ++k) {
