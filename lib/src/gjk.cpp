@@ -19,9 +19,11 @@ namespace meshcontact::detail {
 
 namespace {
 
-// Evaluated without short circuits: the signs are data, and a branch per
-// comparison mispredicts on them (this runs at every GJK iteration).
-bool sameSign(double a, double b) { return ((a > 0.0) & (b > 0.0)) | ((a < 0.0) & (b < 0.0)); }
+// 1 when a and b are both positive or both negative, else 0. An int, and no
+// short circuits where the results are combined (&): the signs are data, and
+// a branch per comparison mispredicts on them (this runs at every GJK
+// iteration).
+int sameSign(double a, double b) { return ((a > 0.0) & (b > 0.0)) | ((a < 0.0) & (b < 0.0)); }
 
 using Sub = SubSimplex;
 
