@@ -131,8 +131,11 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     const Vec3& a = c.vertices[0];
     const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
     if (n.isZero()) continue;
-    // A sphere's test below (its centre in front of the plane), first: it
-    // skips most candidates, and nothing before it has an effect.
+    // A sphere whose centre is in front of this triangle's plane and that
+    // overlaps the triangle gets a contact from the core's narrowphase
+    // (reference §4a: only a centre behind the plane is culled), and this
+    // fallback runs only when the pipeline gave none: no overlap here. Tested
+    // first: it skips most of a sphere's candidates before any support call.
     if (confirm && shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
     const Vec3 deepest = supportPoint(shape, pose, -n);
     const double depth = n.dot(a - deepest);  // how far the shape must move along n to clear the plane
@@ -140,11 +143,6 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     if (n.dot(supportPoint(shape, pose, n) - a) < -band) continue;  // wholly behind: no overlap
     if (found && !(depth > out.depth || (depth == out.depth && c.triangle < out.triangle))) continue;
     if (confirm) {
-      // A sphere whose centre is in front of this triangle's plane and that
-      // overlaps the triangle gets a contact from the core's narrowphase
-      // (reference §4a: only a centre behind the plane is culled), and this
-      // fallback runs only when the pipeline gave none: no overlap here.
-      if (shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
       // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
       // before FCL's own test is asked: near misses straddle the planes of
       // several candidates, and FCL's GJK costs microseconds per triangle.

@@ -221,30 +221,28 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
   q.axes = shape_in_model.rotation;
   q.center = shape_in_model.apply(shape.box_center);
   q.half = shape.box_half + Vec3::Constant(contact_distance);
-  const Vec3 extent = q.axes.cwiseAbs() * q.half;
-  q.lo = q.center - extent;
-  q.hi = q.center + extent;
   q.ball_only = shape.kind == ShapeKind::kSphere;
-  if (q.ball_only) {
-    q.radius = shape.radius + contact_distance;
+  if (q.ball_only || shape.kind == ShapeKind::kBox) {
+    // Exact for a box: the bounds of its rotated box, and the ball around
+    // them. (A sphere's candidates are the ball's.)
+    const Vec3 extent = q.axes.cwiseAbs() * q.half;
+    q.lo = q.center - extent;
+    q.hi = q.center + extent;
+    q.radius = q.ball_only ? shape.radius + contact_distance : extent.norm();
     return q;
   }
-  if (shape.kind != ShapeKind::kBox) {
-    // The rotated local box's bounds are exact for a box only: a tilted
-    // cylinder's box reaches further out than its rim, by up to sqrt(2)
-    // across the disc. The shape's own bounds (its support points along the six
-    // axis directions, as the core's query takes them) select fewer nodes
-    // and triangles, and the walk's cost is its node visits (cache misses).
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 axis = Vec3::Unit(k);
-      q.hi[k] = supportPoint(shape, shape_in_model, axis)[k] + contact_distance;
-      q.lo[k] = supportPoint(shape, shape_in_model, -axis)[k] - contact_distance;
-    }
+  // The rotated local box's bounds are exact for a box only: a tilted
+  // cylinder's box reaches further out than its rim, by up to sqrt(2) across
+  // the disc. The shape's own bounds (its support points along the six axis
+  // directions, as the core's query takes them) select fewer nodes and
+  // triangles, and the walk's cost is its node visits (cache misses).
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 axis = Vec3::Unit(k);
+    q.hi[k] = supportPoint(shape, shape_in_model, axis)[k] + contact_distance;
+    q.lo[k] = supportPoint(shape, shape_in_model, -axis)[k] - contact_distance;
   }
   // The ball around the bounds, about the box's centre (its farthest corner).
-  q.radius = shape.kind == ShapeKind::kBox
-                 ? extent.norm()
-                 : (q.lo - q.center).cwiseAbs().cwiseMax((q.hi - q.center).cwiseAbs()).norm();
+  q.radius = (q.lo - q.center).cwiseAbs().cwiseMax((q.hi - q.center).cwiseAbs()).norm();
   return q;
 }
 
