@@ -25,10 +25,8 @@ namespace {
 // iteration).
 int sameSign(double a, double b) { return ((a > 0.0) & (b > 0.0)) | ((a < 0.0) & (b < 0.0)); }
 
-using Sub = SubSimplex;
-
-Sub vertexOnly(const Vec3* w, int i) {
-  Sub r;
+SubSimplex vertexOnly(const Vec3* w, int i) {
+  SubSimplex r;
   r.idx[0] = i;
   r.lambda[0] = 1.0;
   r.size = 1;
@@ -37,7 +35,7 @@ Sub vertexOnly(const Vec3* w, int i) {
 }
 
 // Segment (i, j).
-Sub s1d(const Vec3* w, int i, int j) {
+SubSimplex s1d(const Vec3* w, int i, int j) {
   const Vec3& a = w[i];
   const Vec3& b = w[j];
   const Vec3 t = b - a;
@@ -50,7 +48,7 @@ Sub s1d(const Vec3* w, int i, int j) {
   const double ca = p0[k] - b[k];  // weight of a, times mu
   const double cb = a[k] - p0[k];  // weight of b, times mu
   if (sameSign(mu, ca) & sameSign(mu, cb)) {
-    Sub r;
+    SubSimplex r;
     r.idx[0] = i, r.idx[1] = j;
     r.lambda[0] = ca / mu, r.lambda[1] = cb / mu;
     r.size = 2;
@@ -61,13 +59,13 @@ Sub s1d(const Vec3* w, int i, int j) {
 }
 
 // Triangle (i, j, k).
-Sub s2d(const Vec3* w, int i, int j, int k) {
+SubSimplex s2d(const Vec3* w, int i, int j, int k) {
   const Vec3 &a = w[i], &b = w[j], &c = w[k];
   const Vec3 n = (b - a).cross(c - a);
   const double nn = n.squaredNorm();
-  Sub best;
+  SubSimplex best;
   double best2 = std::numeric_limits<double>::infinity();
-  auto consider = [&](const Sub& s) {
+  auto consider = [&](const SubSimplex& s) {
     const double d2 = s.point.squaredNorm();
     if (d2 < best2) best = s, best2 = d2;
   };
@@ -83,7 +81,7 @@ Sub s2d(const Vec3* w, int i, int j, int k) {
     const double mu = area(a, b, c);
     const double ca = area(p0, b, c), cb = area(a, p0, c), cc = area(a, b, p0);
     if (sameSign(mu, ca) & sameSign(mu, cb) & sameSign(mu, cc)) {
-      Sub r;
+      SubSimplex r;
       r.idx[0] = i, r.idx[1] = j, r.idx[2] = k;
       r.lambda[0] = ca / mu, r.lambda[1] = cb / mu, r.lambda[2] = cc / mu;
       r.size = 3;
@@ -130,7 +128,7 @@ SimplexResult closestSubSimplex(const Simplex& s, SubSimplex& r) {
       const bool flat = !(det != 0.0);
       for (int f = 0; f < 4; ++f) {
         if (!flat && sameSign(det, c[f])) continue;
-        const Sub t = s2d(w, faces[f][0], faces[f][1], faces[f][2]);
+        const SubSimplex t = s2d(w, faces[f][0], faces[f][1], faces[f][2]);
         const double d2 = t.point.squaredNorm();
         if (d2 < best2) r = t, best2 = d2;
       }
