@@ -4,11 +4,18 @@
 // A per-triangle narrowphase turns each candidate into a Patch (one normal,
 // 1..4 points) tagged with the triangle feature it lies on. Then:
 //   - face patches are kept as they come and void their triangle;
-//   - edge and vertex patches are delayed, sorted by distance (ties broken by
-//     mesh and triangle index, so the result does not depend on the
-//     midphase's order), and processed in one pass: a patch whose edge or
-//     vertex is voided is dropped, and every processed triangle is voided
-//     whether or not it produced a contact (§5a, §5b).
+//   - edge and vertex patches are delayed and processed in distance order
+//     (ties broken by mesh and triangle index, so the result does not depend
+//     on the midphase's order): a patch whose edge or vertex is voided is
+//     dropped, and every processed triangle is voided whether or not it
+//     produced a contact (§5a, §5b). So at a delayed patch's turn, V holds
+//     exactly the face contacts' triangles and the triangles of the delayed
+//     patches that precede it in that order. The filter tests that directly,
+//     without sorting: every contact's triangle is entered once with its rank
+//     (faces first), and a delayed patch is voided iff a triangle ranked
+//     before it holds its feature. The verdicts are those of the sorted pass,
+//     for less than the sort alone cost (~2,000 instructions per sphere query
+//     on a floor: 16 delayed patches of 24 bytes, moved and compared).
 //   - a delayed patch may also carry its triangle's face part (shapes that
 //     extend over several triangles: the capsule's core, part of which lies
 //     over this face while its closest point to the triangle is on an edge).
@@ -29,6 +36,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace meshcontact::detail {
@@ -54,12 +62,31 @@ struct Patch {
 
 enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
 
-/// The set V of voided triangles, asked "is this vertex / edge voided?".
-/// Each distinct voided vertex key heads a list of the voided triangles that
-/// contain it (linked through the triangles): voiding a triangle is three
-/// map updates, a vertex test one lookup, and an edge (a, b) test one lookup
-/// of a and a walk over the few voided triangles around a (a vertex of a
-/// triangle mesh has ~6) for one that also holds b.
+/// Where a contact's triangle stands in the §5 processing order: face
+/// contacts first (distance -inf: their order among themselves does not
+/// matter), then delayed patches by distance; then an order that depends only
+/// on the triangle's identity, never on where the midphase put it.
+struct SortItem {
+  double distance;
+  std::uint32_t mesh;
+  std::uint32_t triangle;
+  std::uint32_t patch;  // index in the patch buffer
+
+  bool operator<(const SortItem& o) const {
+    if (distance != o.distance) return distance < o.distance;
+    if (mesh != o.mesh) return mesh < o.mesh;
+    if (triangle != o.triangle) return triangle < o.triangle;
+    return patch < o.patch;
+  }
+};
+
+/// The triangles of every contact of a query, each with its rank, asked
+/// "is this vertex / edge held by a triangle ranked before this one?", i.e.
+/// voided at that patch's turn in the sequential pass. Each distinct vertex
+/// key heads a list of the entered triangles that contain it (linked through
+/// the triangles): entering a triangle is three map updates, and a test is one
+/// lookup and a walk over the few triangles around the vertex (a vertex of a
+/// triangle mesh has ~6).
 class VoidedSet {
  public:
   void reset(std::size_t triangles) {
@@ -67,9 +94,10 @@ class VoidedSet {
     if (tris_.size() < triangles) tris_.resize(triangles);
     heads_.reset(3 * triangles);
   }
-  void voidTriangle(const std::uint64_t k[3]) {
+  void add(const std::uint64_t k[3], const SortItem& rank) {
     const auto t = static_cast<std::uint32_t>(count_++);
     Tri& tri = tris_[t];
+    tri.rank = rank;
     for (int i = 0; i < 3; ++i) {
       tri.k[i] = k[i];
       tri.next[i] = kNone;
@@ -80,16 +108,19 @@ class VoidedSet {
       head = t;
     }
   }
-  bool isVoided(Feature f, const std::uint64_t k[3]) const {
+  /// Whether feature f of the triangle with keys k is held by a triangle
+  /// entered with a rank before `rank` (the triangle itself, entered with
+  /// `rank`, never counts).
+  bool isVoidedBefore(Feature f, const std::uint64_t k[3], const SortItem& rank) const {
     if (f.type == FeatureType::kFace) return false;
     const std::uint32_t* head = heads_.find(k[f.index]);
     if (head == nullptr) return false;
-    if (f.type == FeatureType::kVertex) return true;
     const std::uint64_t a = k[f.index], b = k[(f.index + 1) % 3];
+    const bool vertex = f.type == FeatureType::kVertex;
     for (std::uint32_t t = *head; t != kNone;) {
       const Tri& tri = tris_[t];
       // Two distinct keys of one triangle always form one of its edges.
-      if (tri.k[0] == b || tri.k[1] == b || tri.k[2] == b) return true;
+      if ((vertex || tri.k[0] == b || tri.k[1] == b || tri.k[2] == b) && tri.rank < rank) return true;
       t = tri.next[tri.k[0] == a ? 0 : tri.k[1] == a ? 1 : 2];
     }
     return false;
@@ -99,7 +130,8 @@ class VoidedSet {
   static constexpr std::uint32_t kNone = 0xffffffffu;
   struct Tri {
     std::uint64_t k[3];
-    std::uint32_t next[3];  // the next voided triangle holding k[i]
+    std::uint32_t next[3];  // the next entered triangle holding k[i]
+    SortItem rank;
   };
   std::vector<Tri> tris_;
   std::size_t count_ = 0;
@@ -112,23 +144,7 @@ class VoidedSet {
       return static_cast<std::size_t>(h ^ (h >> 32));
     }
   };
-  StampedMap<std::uint64_t, std::uint32_t, KeyHash> heads_;  // vertex key -> last voided triangle holding it
-};
-
-struct SortItem {
-  double distance;
-  std::uint32_t mesh;
-  std::uint32_t triangle;
-  std::uint32_t patch;  // index in the patch buffer
-
-  // Distance first (§5a); then an order that depends only on the triangle's
-  // identity, never on where the midphase put it.
-  bool operator<(const SortItem& o) const {
-    if (distance != o.distance) return distance < o.distance;
-    if (mesh != o.mesh) return mesh < o.mesh;
-    if (triangle != o.triangle) return triangle < o.triangle;
-    return patch < o.patch;
-  }
+  StampedMap<std::uint64_t, std::uint32_t, KeyHash> heads_;  // vertex key -> last entered triangle holding it
 };
 
 /// Scratch of the filter; lives in QueryScratch::Impl.
@@ -196,19 +212,19 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     ++used;
     if (p.feature.type == FeatureType::kFace || !filter) {
       s.accepted.push_back(item);
-      if (filter) s.voided.voidTriangle(c.keys);
+      if (filter) s.voided.add(c.keys, {-std::numeric_limits<double>::infinity(), c.mesh, c.triangle, item.patch});
       if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, contactVerdict(p.feature)});
     } else {
       s.delayed.push_back(item);
+      s.voided.add(c.keys, item);
     }
   }
 
-  // Pass 2: delayed contacts in distance order, voiding unconditionally (§5).
-  std::sort(s.delayed.begin(), s.delayed.end());
+  // Pass 2: each delayed contact against the triangles ranked before it (§5).
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
-    const bool voided = s.voided.isVoided(p.feature, c.keys);
+    const bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
     const bool face_only = voided && p.face_count > 0;
     if (face_only) {  // the patch becomes its face part
       p.feature = Feature::face();
@@ -219,7 +235,6 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     }
     const Verdict verdict = face_only ? Verdict::kFaceContact : voided ? Verdict::kVoided : contactVerdict(p.feature);
     if (!voided || face_only) s.accepted.push_back(item);
-    s.voided.voidTriangle(c.keys);
     if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, verdict});
   }
 
