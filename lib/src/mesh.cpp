@@ -48,13 +48,6 @@ float floatAbove(double x) {
   return f;
 }
 
-// Branch-free (& not &&): the six compares of a box test are not predictable
-// from one node to the next, one branch per compare costs mispredictions.
-inline bool overlaps(const BvhNode& n, const float lo[3], const float hi[3]) {
-  return (n.lo[0] <= hi[0]) & (n.hi[0] >= lo[0]) & (n.lo[1] <= hi[1]) & (n.hi[1] >= lo[1]) & (n.lo[2] <= hi[2]) &
-         (n.hi[2] >= lo[2]);
-}
-
 }  // namespace
 
 bool isDegenerateTriangle(const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -179,40 +172,56 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     model.addSubModel(points, tris);
     model.endModel();
 
-    const int count = model.getNumBVs();
-    nodes_.resize(static_cast<std::size_t>(count));
-    for (int i = 0; i < count; ++i) {
-      const fcl::BVNode<fcl::AABBd>& src = model.getBV(i);
-      BvhNode& dst = nodes_[static_cast<std::size_t>(i)];
+    // Collapse every other level: a node's lanes are its binary node's
+    // children, each inner child replaced by its own two children. Built
+    // depth first (a node's subtree follows it in memory) with an explicit
+    // stack: FCL's tree can be as deep as the mesh is degenerate.
+    struct Pending {
+      int binary;         // FCL node whose (grand)children fill the new node
+      std::int32_t parent;  // node and lane to point at it (-1: the root)
+      int lane;
+      int depth;
+    };
+    const auto setLane = [&](BvhNode& dst, int lane, int binary) {
+      const fcl::BVNode<fcl::AABBd>& src = model.getBV(binary);
       for (int k = 0; k < 3; ++k) {
-        dst.lo[k] = floatBelow(src.bv.min_[k]);
-        dst.hi[k] = floatAbove(src.bv.max_[k]);
+        dst.lo[k][lane] = floatBelow(src.bv.min_[k]);
+        dst.hi[k][lane] = floatAbove(src.bv.max_[k]);
       }
-      if (src.isLeaf()) {
-        dst.first_child = -1;
-        dst.triangle = usable[static_cast<std::size_t>(src.primitiveId())];
+      dst.lanes |= 1u << lane;
+      dst.child[lane] = src.isLeaf() ? ~static_cast<std::int32_t>(usable[static_cast<std::size_t>(src.primitiveId())])
+                                     : std::int32_t{0};  // set when the child node is made
+    };
+    nodes_.reserve(static_cast<std::size_t>(model.getNumBVs()) / 3 + 1);
+    std::vector<Pending> pending{{0, -1, 0, 1}};
+    while (!pending.empty()) {
+      const Pending job = pending.back();
+      pending.pop_back();
+      const auto index = static_cast<std::int32_t>(nodes_.size());
+      if (job.parent >= 0) nodes_[static_cast<std::size_t>(job.parent)].child[job.lane] = index;
+      bvh_depth_ = std::max(bvh_depth_, job.depth);
+      BvhNode node{};  // unused lanes stay zero: masked out by `lanes`
+      int lanes[4];
+      int n = 0;
+      const fcl::BVNode<fcl::AABBd>& top = model.getBV(job.binary);
+      if (top.isLeaf()) {
+        lanes[n++] = job.binary;  // a one-triangle mesh: the root's only lane
       } else {
-        dst.first_child = src.leftChild();
-        dst.triangle = 0;
-        if (src.rightChild() != src.leftChild() + 1) {
-          // FCL allocates siblings in pairs; our walk relies on it.
-          reset();
-          return {ErrorCode::kTooLarge, "unexpected FCL BVH layout: children of node " + std::to_string(i) +
-                                            " are not adjacent"};
+        for (const int c : {top.leftChild(), top.rightChild()}) {
+          const fcl::BVNode<fcl::AABBd>& child = model.getBV(c);
+          if (child.isLeaf()) {
+            lanes[n++] = c;
+          } else {
+            lanes[n++] = child.leftChild();
+            lanes[n++] = child.rightChild();
+          }
         }
       }
-    }
-    // Depth, for the traversal stack's size.
-    std::vector<std::pair<std::int32_t, int>> stack{{0, 1}};
-    while (!stack.empty()) {
-      const auto [n, d] = stack.back();
-      stack.pop_back();
-      bvh_depth_ = std::max(bvh_depth_, d);
-      const BvhNode& node = nodes_[static_cast<std::size_t>(n)];
-      if (node.first_child >= 0) {
-        stack.push_back({node.first_child, d + 1});
-        stack.push_back({node.first_child + 1, d + 1});
-      }
+      for (int l = 0; l < n; ++l) setLane(node, l, lanes[l]);
+      nodes_.push_back(node);
+      // Reverse order: the first inner lane is made first, right after its parent.
+      for (int l = n - 1; l >= 0; --l)
+        if (node.child[l] >= 0) pending.push_back({lanes[l], index, l, job.depth + 1});
     }
   }
   built_ = true;
@@ -223,83 +232,138 @@ namespace {
 
 // Every leaf passes: the plain box query.
 struct AnyLeaf {
-  bool operator()(const BvhNode&) const { return true; }
+  unsigned operator()(const BvhNode&) const { return 0xfu; }
 };
 
-// A leaf passes when its box is within the radius of the centre (Ericson
-// 5.2.5, squared distance point-AABB): on a floor, about half the leaves
+// The lanes whose box is within the radius of the centre (Ericson 5.2.5,
+// squared distance point-AABB), as bits: on a floor, about half the leaves
 // whose boxes overlap the sphere's bounding box only overlap its corners.
-// In double from the outward-rounded float bounds, so never a false reject.
+// In double from the outward-rounded float bounds, so never a false reject;
+// two lanes per SSE2 register, no branch.
 struct LeafNearSphere {
   Vec3 center;
   double radius2;
-  bool operator()(const BvhNode& n) const {
-    double d2 = 0.0;
+  unsigned operator()(const BvhNode& n) const {
+#if defined(__SSE2__)
+    const __m128d zero = _mm_setzero_pd();
+    __m128d d2[2] = {zero, zero};  // lanes 0-1, lanes 2-3
     for (int k = 0; k < 3; ++k) {
-      const double below = static_cast<double>(n.lo[k]) - center[k];
-      const double above = center[k] - static_cast<double>(n.hi[k]);
-      const double e = std::max(0.0, std::max(below, above));
-      d2 += e * e;
+      const __m128d c = _mm_set1_pd(center[k]);
+      const __m128 lo = _mm_load_ps(n.lo[k]), hi = _mm_load_ps(n.hi[k]);
+      const __m128d los[2] = {_mm_cvtps_pd(lo), _mm_cvtps_pd(_mm_movehl_ps(lo, lo))};
+      const __m128d his[2] = {_mm_cvtps_pd(hi), _mm_cvtps_pd(_mm_movehl_ps(hi, hi))};
+      for (int h = 0; h < 2; ++h) {
+        const __m128d e = _mm_max_pd(zero, _mm_max_pd(_mm_sub_pd(los[h], c), _mm_sub_pd(c, his[h])));
+        d2[h] = _mm_add_pd(d2[h], _mm_mul_pd(e, e));
+      }
     }
-    return d2 <= radius2;
+    const __m128d r2 = _mm_set1_pd(radius2);
+    return static_cast<unsigned>(_mm_movemask_pd(_mm_cmple_pd(d2[0], r2)) |
+                                 _mm_movemask_pd(_mm_cmple_pd(d2[1], r2)) << 2);
+#else
+    unsigned bits = 0;
+    for (int l = 0; l < 4; ++l) {
+      double d2 = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const double below = static_cast<double>(n.lo[k][l]) - center[k];
+        const double above = center[k] - static_cast<double>(n.hi[k][l]);
+        const double e = std::max(0.0, std::max(below, above));
+        d2 += e * e;
+      }
+      bits |= static_cast<unsigned>(d2 <= radius2) << l;
+    }
+    return bits;
+#endif
   }
 };
 
-// Depth-first walk over the inner nodes; a leaf child is reported when its
-// box overlaps the query box and `leaf_ok` accepts it.
+// The lanes of node n whose boxes overlap the query box [qlo, qhi], as bits.
+#if defined(__SSE2__)
+struct QueryBox {
+  __m128 lo[3], hi[3];
+  QueryBox(const float qlo[3], const float qhi[3]) {
+    for (int k = 0; k < 3; ++k) lo[k] = _mm_set1_ps(qlo[k]), hi[k] = _mm_set1_ps(qhi[k]);
+  }
+  unsigned overlapping(const BvhNode& n) const {
+    __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_load_ps(n.lo[0]), hi[0]), _mm_cmpge_ps(_mm_load_ps(n.hi[0]), lo[0]));
+    for (int k = 1; k < 3; ++k)
+      ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmple_ps(_mm_load_ps(n.lo[k]), hi[k]), _mm_cmpge_ps(_mm_load_ps(n.hi[k]), lo[k])));
+    return static_cast<unsigned>(_mm_movemask_ps(ok)) & n.lanes;
+  }
+};
+#else
+struct QueryBox {
+  float lo[3], hi[3];
+  QueryBox(const float qlo[3], const float qhi[3]) {
+    for (int k = 0; k < 3; ++k) lo[k] = qlo[k], hi[k] = qhi[k];
+  }
+  unsigned overlapping(const BvhNode& n) const {
+    unsigned bits = 0;
+    for (int l = 0; l < 4; ++l) {
+      // Branch-free (& not &&): the compares are not predictable from one box to the next.
+      const bool ok = (n.lo[0][l] <= hi[0]) & (n.hi[0][l] >= lo[0]) & (n.lo[1][l] <= hi[1]) &
+                      (n.hi[1][l] >= lo[1]) & (n.lo[2][l] <= hi[2]) & (n.hi[2][l] >= lo[2]);
+      bits |= static_cast<unsigned>(ok) << l;
+    }
+    return bits & n.lanes;
+  }
+};
+#endif
+
+// The lanes of node n that hold leaves (child < 0), as bits.
+inline unsigned leafLanes(const BvhNode& n) {
+#if defined(__SSE2__)
+  return static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(n.child)))));
+#else
+  unsigned bits = 0;
+  for (int l = 0; l < 4; ++l) bits |= static_cast<unsigned>(n.child[l] < 0) << l;
+  return bits;
+#endif
+}
+
+// Depth-first walk. At each node, the leaves among the overlapping lanes are
+// reported when `leaf_ok` (lanes as bits) accepts them and the inner ones are pushed; the
+// lanes are handled without a branch each (which lanes overlap, which are
+// leaves and which pass the leaf test change from one node to the next: a
+// branch per lane mispredicts often), a stack slot or an output slot is
+// written for every lane and kept only when it counts.
 template <class LeafTest>
 void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
           std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
   const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
-  if (!overlaps(nodes[0], qlo, qhi)) return;
-  if (nodes[0].first_child < 0) {
-    if (leaf_ok(nodes[0])) out.push_back(nodes[0].triangle);
-    return;
-  }
-  // A depth-first walk keeps at most one pending sibling per level.
-  if (stack.size() < static_cast<std::size_t>(depth) + 1) stack.resize(depth + 1);
+  const QueryBox query(qlo, qhi);
+  // Each level leaves at most 3 lanes pending, and a node writes up to 4
+  // slots past the top.
+  const std::size_t need = 3 * static_cast<std::size_t>(depth) + 4;
+  if (stack.size() < need) stack.resize(need);
   std::int32_t* const bottom = stack.data();
   std::int32_t* top = bottom;
-#if defined(__SSE2__)
-  const __m128 vlo = _mm_setr_ps(qlo[0], qlo[1], qlo[2], 0.0f);
-  const __m128 vhi = _mm_setr_ps(qhi[0], qhi[1], qhi[2], 0.0f);
-  // lo <= qhi and hi >= qlo on x, y, z (lane 3 holds the index fields: ignored).
-  auto hit = [&](const BvhNode& n) {
-    const float* f = reinterpret_cast<const float*>(&n);
-    const __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(f), vhi), _mm_cmpge_ps(_mm_loadu_ps(f + 4), vlo));
-    return (_mm_movemask_ps(ok) & 7) == 7;
-  };
-#else
-  auto hit = [&](const BvhNode& n) { return overlaps(n, qlo, qhi); };
-#endif
-  // Inner nodes only are visited; leaf children are reported when tested.
+  std::size_t found = out.size();
   std::int32_t current = 0;
   for (;;) {
-    const std::int32_t left = nodes[current].first_child;
-    const BvhNode& l = nodes[left];
-    const BvhNode& r = nodes[left + 1];
-    bool go_left = hit(l), go_right = hit(r);
-    if (go_left && l.first_child < 0) {
-      if (leaf_ok(l)) out.push_back(l.triangle);
-      go_left = false;
+    const BvhNode& n = nodes[current];
+    const unsigned bits = query.overlapping(n);
+    const unsigned leaves = bits & leafLanes(n);
+    const unsigned inner = bits & ~leafLanes(n);
+    if (leaves != 0) {
+      const unsigned take = leaves & leaf_ok(n);
+      if (out.size() < found + 4) out.resize(2 * found + 16);
+      std::uint32_t* slot = out.data() + found;
+      for (int l = 0; l < 4; ++l) {
+        *slot = static_cast<std::uint32_t>(~n.child[l]);
+        slot += take >> l & 1u;
+      }
+      found = static_cast<std::size_t>(slot - out.data());
     }
-    if (go_right && r.first_child < 0) {
-      if (leaf_ok(r)) out.push_back(r.triangle);
-      go_right = false;
-    }
-    if (go_left) {
-      if (go_right) *top++ = left + 1;
-      current = left;
-      continue;
-    }
-    if (go_right) {
-      current = left + 1;
-      continue;
+    for (int l = 0; l < 4; ++l) {
+      *top = n.child[l];
+      top += inner >> l & 1u;
     }
     if (top == bottom) break;
     current = *--top;
   }
+  out.resize(found);
 }
 
 }  // namespace

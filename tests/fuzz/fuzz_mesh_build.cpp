@@ -17,15 +17,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   MC_FUZZ_CHECK(mesh.isBuilt());
   MC_FUZZ_CHECK(mesh.triangleCount() == raw.indices.size() / 3);
   MC_FUZZ_CHECK(mesh.degenerateTriangleCount() <= mesh.triangleCount());
-  // Every BVH leaf names a valid, non-degenerate triangle.
+  // Every BVH leaf names a valid, non-degenerate triangle; inner lanes
+  // point forward (the hierarchy is built depth first).
   std::size_t leaves = 0;
-  for (const BvhNode& node : mesh.bvh()) {
-    if (node.first_child >= 0) {
-      MC_FUZZ_CHECK(static_cast<std::size_t>(node.first_child) + 1 < mesh.bvh().size());
-      continue;
+  const BvhNodes& nodes = mesh.bvh();
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    MC_FUZZ_CHECK(nodes[i].lanes != 0 && nodes[i].lanes <= 0xfu);
+    for (int lane = 0; lane < 4; ++lane) {
+      if (!(nodes[i].lanes >> lane & 1u)) continue;
+      const std::int32_t c = nodes[i].child[lane];
+      if (c >= 0) {
+        MC_FUZZ_CHECK(static_cast<std::size_t>(c) > i && static_cast<std::size_t>(c) < nodes.size());
+        continue;
+      }
+      ++leaves;
+      MC_FUZZ_CHECK(static_cast<std::uint32_t>(~c) < mesh.triangleCount());
     }
-    ++leaves;
-    MC_FUZZ_CHECK(node.triangle < mesh.triangleCount());
   }
   MC_FUZZ_CHECK(leaves == mesh.triangleCount() - mesh.degenerateTriangleCount());
   // A sphere around each vertex: well-formed contacts, no NaN.
