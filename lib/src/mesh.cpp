@@ -173,11 +173,31 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     model.endModel();
 
     // Collapse every other level: a node's lanes are its binary node's
-    // children, each inner child replaced by its own two children. Built
-    // depth first (a node's subtree follows it in memory) with an explicit
-    // stack: FCL's tree can be as deep as the mesh is degenerate.
+    // children, an inner child whose height (edges down to its deepest
+    // leaf) is odd replaced by its own two children. Lanes then sit at even
+    // heights, so a node just above the leaves gets four of them, not two
+    // (collapsing from the root down would leave half-empty nodes all along
+    // the bottom level of a tree of odd depth). Built depth first (a node's
+    // subtree follows it in memory) with explicit stacks: FCL's tree can be
+    // as deep as the mesh is degenerate.
+    std::vector<int> height(static_cast<std::size_t>(model.getNumBVs()), 0);
+    {
+      std::vector<int> order, todo{0};  // preorder: children after parents
+      while (!todo.empty()) {
+        const int b = todo.back();
+        todo.pop_back();
+        order.push_back(b);
+        if (!model.getBV(b).isLeaf()) todo.insert(todo.end(), {model.getBV(b).leftChild(), model.getBV(b).rightChild()});
+      }
+      for (auto it = order.rbegin(); it != order.rend(); ++it) {
+        const fcl::BVNode<fcl::AABBd>& bv = model.getBV(*it);
+        if (!bv.isLeaf())
+          height[static_cast<std::size_t>(*it)] =
+              1 + std::max(height[static_cast<std::size_t>(bv.leftChild())], height[static_cast<std::size_t>(bv.rightChild())]);
+      }
+    }
     struct Pending {
-      int binary;         // FCL node whose (grand)children fill the new node
+      int binary;           // FCL node whose children (or grandchildren) fill the new node
       std::int32_t parent;  // node and lane to point at it (-1: the root)
       int lane;
       int depth;
@@ -192,7 +212,6 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
       dst.child[lane] = src.isLeaf() ? ~static_cast<std::int32_t>(usable[static_cast<std::size_t>(src.primitiveId())])
                                      : std::int32_t{0};  // set when the child node is made
     };
-    nodes_.reserve(static_cast<std::size_t>(model.getNumBVs()) / 3 + 1);
     std::vector<Pending> pending{{0, -1, 0, 1}};
     while (!pending.empty()) {
       const Pending job = pending.back();
@@ -209,7 +228,7 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
       } else {
         for (const int c : {top.leftChild(), top.rightChild()}) {
           const fcl::BVNode<fcl::AABBd>& child = model.getBV(c);
-          if (child.isLeaf()) {
+          if (child.isLeaf() || height[static_cast<std::size_t>(c)] % 2 == 0) {
             lanes[n++] = c;
           } else {
             lanes[n++] = child.leftChild();
@@ -360,6 +379,14 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
       *top = n.child[l];
       top += inner >> l & 1u;
     }
+#if defined(__SSE2__)
+    // On a large mesh the walk waits on memory: fetch the pending nodes now.
+    for (unsigned b = inner; b != 0; b &= b - 1) {
+      const char* next = reinterpret_cast<const char*>(nodes + n.child[__builtin_ctz(b)]);
+      _mm_prefetch(next, _MM_HINT_T0);
+      _mm_prefetch(next + 64, _MM_HINT_T0);
+    }
+#endif
     if (top == bottom) break;
     current = *--top;
   }
