@@ -183,34 +183,44 @@ struct SphereNarrowphase {
     }
     // Not degenerate: |ab x ac|^2 > 1e-24 * longest^4 >= 1e-24, and the
     // scaled components are below 2, so the length is normal and finite.
-    const Vec3 n = edges.cross / std::sqrt(edges.cross.squaredNorm());
+    // The plane tests use s = (ab x ac) . rel = height * |ab x ac| and its
+    // square, not the unit normal: most candidates are edge or vertex
+    // contacts that never need it, and its square root and divisions sat on
+    // every candidate's critical path. s^2 neither overflows nor underflows
+    // to a wrong answer: |s| <= ~1e51 within the API's range, and an
+    // underflow only lets a candidate through to the exact tests below.
+    const Vec3& cross = edges.cross;
+    const double cross2 = edges.cross2;
     const Vec3 rel = center - a;
-    const double height = n.dot(rel);
-    if (height < 0.0) {  // centre behind the plane
-      p.distance = -height;
+    const double s = cross.x() * rel.x() + cross.y() * rel.y() + cross.z() * rel.z();
+    if (s < 0.0) {  // centre behind the plane
+      p.distance = -s / std::sqrt(cross2);
       return detail::PatchOutcome::kBackFacing;
     }
-    if (height > inflated) {  // the plane is already too far (fig. 1)
-      p.distance = height;
+    if (s * s > inflated * inflated * cross2) {  // the plane is already too far (fig. 1)
+      p.distance = s / std::sqrt(cross2);
       return detail::PatchOutcome::kBeyondContactDistance;
     }
     const Vec3 rel_scaled = rel * edges.inv_scale;  // exact
-    const ClosestPoint cp = detail::closestPointInline(rel_scaled, Vec3::Zero(), edges.ab, edges.ac);
-    p.feature = cp.feature;
+    Vec3 closest;
+    p.feature = detail::closestPointInline(rel_scaled, Vec3::Zero(), edges.ab, edges.ac, closest);
     double distance;
-    if (cp.feature.type == FeatureType::kFace) {
-      distance = height;  // exact for the face region, and never NaN
+    if (p.feature.type == FeatureType::kFace) {
+      const Vec3 n = cross / std::sqrt(cross2);
+      // Exact for the face region, and never NaN; s >= 0 was tested on the
+      // unnormalised normal, so clamp a rounding below zero.
+      distance = std::max(0.0, n.dot(rel));
       p.normal = n;
     } else {
       // In the triangle's scale, where |d| neither overflows nor underflows
       // for any sphere within reach of a non-degenerate triangle.
-      const Vec3 d = rel_scaled - cp.point;
+      const Vec3 d = rel_scaled - closest;
       const double length = d.norm();
       distance = length * edges.scale;
       // §4b: if the centre is on the feature, fall back to the face normal.
       // "On" is relative to the scene's scale, not an absolute epsilon.
       const double tiny = 1e-12 * std::max(radius, edges.scale);
-      p.normal = distance > tiny ? Vec3(d / length) : n;
+      p.normal = distance > tiny ? Vec3(d / length) : Vec3(cross / std::sqrt(cross2));
     }
     p.distance = distance;
     if (!std::isfinite(distance)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate

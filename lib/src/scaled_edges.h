@@ -24,6 +24,7 @@ struct ScaledEdges {
   Vec3 ab = Vec3::Zero();  // (b - a) / scale
   Vec3 ac = Vec3::Zero();  // (c - a) / scale
   Vec3 cross = Vec3::Zero();  // ab x ac: the (scaled) normal, for callers that need it next
+  double cross2 = 0.0;        // |ab x ac|^2
   /// |ab x ac| <= 1e-12 * (longest edge)^2, or a zero / non-finite scale:
   /// no usable normal. Compared squared; the longest scaled edge is >= 1, so
   /// the bound cannot underflow. !(>) so that NaN counts as degenerate.
@@ -51,9 +52,17 @@ inline ScaledEdges scaledEdges(const Vec3& a, const Vec3& b, const Vec3& c) {
   if (!(m > 0.0) || !powerOfTwoBelow(m, e.scale, e.inv_scale)) return e;
   e.ab = ab * e.inv_scale;
   e.ac = ac * e.inv_scale;
-  const double longest2 = std::max({e.ab.squaredNorm(), e.ac.squaredNorm(), (e.ac - e.ab).squaredNorm()});
-  e.cross = e.ab.cross(e.ac);
-  e.degenerate = !(e.cross.squaredNorm() > 1e-24 * longest2 * longest2);
+  // Scalar arithmetic, in the order Eigen's would run: written lane by lane
+  // and read back as a pair, the cross product stalled every candidate on a
+  // failed store-to-load forward.
+  const double ux = e.ab.x(), uy = e.ab.y(), uz = e.ab.z();
+  const double vx = e.ac.x(), vy = e.ac.y(), vz = e.ac.z();
+  const double wx = vx - ux, wy = vy - uy, wz = vz - uz;
+  const double longest2 = std::max({ux * ux + uy * uy + uz * uz, vx * vx + vy * vy + vz * vz, wx * wx + wy * wy + wz * wz});
+  const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
+  e.cross = Vec3(cx, cy, cz);
+  e.cross2 = cx * cx + cy * cy + cz * cz;
+  e.degenerate = !(e.cross2 > 1e-24 * longest2 * longest2);
   return e;
 }
 

@@ -9,7 +9,9 @@ namespace meshcontact {
 
 // Ericson §5.1.5: closest_point.h.
 ClosestPoint closestPointOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  return detail::closestPointInline(p, a, b, c);
+  ClosestPoint cp;
+  cp.feature = detail::closestPointInline(p, a, b, c, cp.point);
+  return cp;
 }
 
 }  // namespace meshcontact

@@ -94,10 +94,17 @@ class VoidedSet {
     if (tris_.size() < triangles) tris_.resize(triangles);
     heads_.reset(3 * triangles);
   }
-  void add(const std::uint64_t k[3], const SortItem& rank) {
+  /// Enters a triangle with rank (distance, mesh, triangle, patch). Field by
+  /// field, not as a SortItem: a SortItem built on the stack and copied as
+  /// whole words failed store-to-load forwarding.
+  void add(const std::uint64_t k[3], double distance, std::uint32_t mesh, std::uint32_t triangle,
+           std::uint32_t patch) {
     const auto t = static_cast<std::uint32_t>(count_++);
     Tri& tri = tris_[t];
-    tri.rank = rank;
+    tri.rank.distance = distance;
+    tri.rank.mesh = mesh;
+    tri.rank.triangle = triangle;
+    tri.rank.patch = patch;
     for (int i = 0; i < 3; ++i) {
       tri.k[i] = k[i];
       tri.next[i] = kNone;
@@ -208,16 +215,16 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       continue;
     }
     s.patch_candidate[used] = static_cast<std::uint32_t>(i);
-    const SortItem item{p.distance, c.mesh, c.triangle, used};
+    const bool face = p.feature.type == FeatureType::kFace || !filter;
+    SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
+    item.distance = p.distance;
+    item.mesh = c.mesh;
+    item.triangle = c.triangle;
+    item.patch = used;
+    if (filter)
+      s.voided.add(c.keys, face ? -std::numeric_limits<double>::infinity() : p.distance, c.mesh, c.triangle, used);
+    if (face && trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, contactVerdict(p.feature)});
     ++used;
-    if (p.feature.type == FeatureType::kFace || !filter) {
-      s.accepted.push_back(item);
-      if (filter) s.voided.add(c.keys, {-std::numeric_limits<double>::infinity(), c.mesh, c.triangle, item.patch});
-      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, contactVerdict(p.feature)});
-    } else {
-      s.delayed.push_back(item);
-      s.voided.add(c.keys, item);
-    }
   }
 
   // Pass 2: each delayed contact against the triangles ranked before it (§5).
