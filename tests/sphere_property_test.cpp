@@ -229,6 +229,99 @@ TEST(Midphase, NeverMissesABruteForceTriangle) {
   EXPECT_GT(total_hits, kPlacements);  // the boxes do hit the mesh
 }
 
+// Edge and vertex contacts are ranked by squared distance and finished only
+// when kept, but the reach test is still the exact one on the rounded
+// distance: a sphere that touches an edge or a vertex exactly at its radius
+// gets a contact of depth 0, and one ulp less radius gets none. The distances
+// are exact in binary (3-4-5 triangles scaled by powers of two), and the
+// triangle's box is nearer than the feature, so that neither the midphase's
+// box test nor the narrowphase's decides.
+TEST(SphereProperties, ReachIsExactForEdgesAndVertices) {
+  SceneMesh m;
+  m.vertices = {0, 0, 0, 4, 3, 0, 0, 3, 0};  // edge 0 along (4, 3), normal +z
+  m.indices = {0, 1, 2};
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  struct Case {
+    Vec3 centre;
+    double radius;
+    Feature feature;
+  };
+  // 0.625 from the middle of edge 0 along (3, -4) / 5 (box distance 0), and
+  // from vertex 1 along (0.8, -0.6) (box distance 0.5).
+  for (const Case& c : {Case{Vec3(2.375, 1.0, 0.0), 0.625, Feature::edge(0)},
+                        Case{Vec3(4.5, 2.625, 0.0), 0.625, Feature::vertex(1)}}) {
+    for (const FilterMode filter : {FilterMode::kVoidedFeatures, FilterMode::kNone}) {
+      QuerySettings settings;
+      settings.filter = filter;
+      ASSERT_TRUE(collideSphere(mesh, {c.centre, c.radius}, settings, scratch, contacts).isOk());
+      ASSERT_EQ(contacts.size(), 1u) << str(c.centre);
+      EXPECT_EQ(contacts[0].feature, c.feature) << str(c.centre);
+      EXPECT_EQ(contacts[0].depth, 0.0) << str(c.centre);
+      const double less = std::nextafter(c.radius, 0.0);
+      ASSERT_TRUE(collideSphere(mesh, {c.centre, less}, settings, scratch, contacts).isOk());
+      EXPECT_TRUE(contacts.empty()) << str(c.centre) << " radius one ulp short";
+      // The same limit through the contact distance.
+      settings.contact_distance = c.radius - 0.125;
+      ASSERT_TRUE(collideSphere(mesh, {c.centre, 0.125}, settings, scratch, contacts).isOk());
+      ASSERT_EQ(contacts.size(), 1u) << str(c.centre);
+      EXPECT_EQ(contacts[0].depth, 0.125 - c.radius)
+          << str(c.centre);
+    }
+  }
+}
+
+// Every contact, kept by the filter or by the naive method, and every
+// trace entry is its triangle's closest point to the centre (Ericson 5.1.5,
+// closestPointOnTriangle): the deferred edge and vertex patches are finished
+// from the same offset they were ranked by.
+TEST(SphereProperties, ContactsAndTraceAreEachTrianglesClosestPoint) {
+  Rng rng(17);
+  SceneMesh m = scenes::flatFloor(12, 12, 0.5, 5, 0.3);
+  for (std::size_t v = 0; v < m.vertexCount(); ++v) m.vertices[3 * v + 2] = rng.uniform(-0.2, 0.2);
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  std::vector<TraceEntry> trace;
+  int edge_or_vertex = 0, voided = 0;
+  for (int i = 0; i < kPlacements / 10; ++i) {
+    const Sphere sphere{Vec3(rng.uniform(0, 6), rng.uniform(0, 6), rng.uniform(-0.1, 0.8)), rng.uniform(0.1, 1.0)};
+    for (const FilterMode filter : {FilterMode::kVoidedFeatures, FilterMode::kNone}) {
+      QuerySettings settings;
+      settings.filter = filter;
+      settings.trace = &trace;
+      ASSERT_TRUE(collideSphere(mesh, sphere, settings, scratch, contacts).isOk());
+      const auto closest = [&](std::uint32_t t) {
+        const std::uint32_t* tri = mesh.triangle(t);
+        return closestPointOnTriangle(sphere.center, mesh.vertex(tri[0]), mesh.vertex(tri[1]), mesh.vertex(tri[2]));
+      };
+      for (const Contact& c : contacts) {
+        const ClosestPoint cp = closest(c.triangle);
+        const double distance = (sphere.center - cp.point).norm();
+        EXPECT_EQ(c.feature, cp.feature) << "triangle " << c.triangle << ", centre " << str(sphere.center);
+        EXPECT_NEAR(c.depth, sphere.radius - distance, 1e-12);
+        EXPECT_NEAR(c.normal.norm(), 1.0, 1e-12);
+        if (c.feature.type != FeatureType::kFace) {
+          ++edge_or_vertex;
+          EXPECT_LT((c.normal - (sphere.center - cp.point) / distance).norm(), 1e-9);
+        }
+        EXPECT_LT((c.point - (sphere.center - sphere.radius * c.normal)).norm(), 1e-12);
+      }
+      for (const TraceEntry& e : trace) {
+        if (e.verdict != Verdict::kVoided && e.verdict != Verdict::kEdgeContact && e.verdict != Verdict::kVertexContact)
+          continue;
+        voided += e.verdict == Verdict::kVoided;
+        const ClosestPoint cp = closest(e.triangle);
+        EXPECT_EQ(e.feature, cp.feature);
+        EXPECT_NEAR(e.distance, (sphere.center - cp.point).norm(), 1e-12);
+      }
+    }
+  }
+  EXPECT_GT(edge_or_vertex, kPlacements / 100);  // the naive method keeps many
+  EXPECT_GT(voided, kPlacements / 10);
+}
+
 // Queries are reentrant and thread-safe on a shared mesh: threads with their
 // own scratch give exactly the single-threaded contacts.
 TEST(SphereProperties, ThreadsSharingAMeshGiveTheSingleThreadResult) {

@@ -151,6 +151,44 @@ struct SphereNarrowphase {
   /// tested each triangle's box (rounded outward) against this sphere: the
   /// box reject below would pass all of them again.
   bool boxes_tested = false;
+  /// inflated^2 (1 -+ 2^-40): a squared distance below `reach2_below` is
+  /// surely within reach (see below).
+  double reach2_below = 0.0;
+
+  SphereNarrowphase(const Vec3& c, double r, double contact_distance, bool tested)
+      : center(c), radius(r), inflated(r + contact_distance), boxes_tested(tested) {
+    reach2_below = inflated * inflated * (1.0 - 0x1p-40);
+  }
+
+  // Edge and vertex contacts (most candidates on a floor; nearly all of them
+  // voided by the filter) are deferred: the filter ranks them by squared
+  // distance and finish() computes the square root, normal, point and depth
+  // for the few it keeps (detail::generateContacts, "deferred"). Until then
+  // the patch holds the squared distance in `distance`, the scaled offset
+  // from the feature to the centre in points[0] and the scale in depths[0].
+  // Ranking by d^2 s^2 (exact: s is a power of two) orders the patches as
+  // their distances sqrt(d^2) s do, except that two squared distances which
+  // round to one distance are no longer a tie.
+  static constexpr bool kDefersEdgesAndVertices = true;
+
+  void finish(const CandidateTriangle& t, detail::Patch& p) const {
+    const Vec3 d = p.points[0];
+    const double scale = p.depths[0];
+    const double length = d.norm();
+    const double distance = length * scale;
+    // §4b: if the centre is on the feature, fall back to the face normal.
+    // "On" is relative to the scene's scale, not an absolute epsilon.
+    const double tiny = 1e-12 * std::max(radius, scale);
+    if (distance > tiny) {
+      p.normal = d / length;
+    } else {
+      const detail::ScaledEdges edges = detail::scaledEdges(t.vertices[0], t.vertices[1], t.vertices[2]);
+      p.normal = edges.cross / std::sqrt(edges.cross2);
+    }
+    p.distance = distance;
+    p.points[0] = center - radius * p.normal;
+    p.depths[0] = radius - distance;
+  }
 
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     const Vec3& a = t.vertices[0];
@@ -204,26 +242,36 @@ struct SphereNarrowphase {
     const Vec3 rel_scaled = rel * edges.inv_scale;  // exact
     Vec3 closest;
     p.feature = detail::closestPointInline(rel_scaled, Vec3::Zero(), edges.ab, edges.ac, closest);
-    double distance;
-    if (p.feature.type == FeatureType::kFace) {
-      const Vec3 n = cross / std::sqrt(cross2);
-      // Exact for the face region, and never NaN; s >= 0 was tested on the
-      // unnormalised normal, so clamp a rounding below zero.
-      distance = std::max(0.0, n.dot(rel));
-      p.normal = n;
-    } else {
+    if (p.feature.type != FeatureType::kFace) {
       // In the triangle's scale, where |d| neither overflows nor underflows
       // for any sphere within reach of a non-degenerate triangle.
       const Vec3 d = rel_scaled - closest;
-      const double length = d.norm();
-      distance = length * edges.scale;
-      // §4b: if the centre is on the feature, fall back to the face normal.
-      // "On" is relative to the scene's scale, not an absolute epsilon.
-      const double tiny = 1e-12 * std::max(radius, edges.scale);
-      p.normal = distance > tiny ? Vec3(d / length) : Vec3(cross / std::sqrt(cross2));
+      const double d2 = d.squaredNorm();
+      const double key = d2 * edges.scale * edges.scale;
+      // Surely within reach: d^2 s^2 < inflated^2 (1 - 2^-40) puts the
+      // rounded distance below `inflated` whatever the roundings (each is
+      // within 2^-52). Otherwise (near the limit, beyond it, or not finite)
+      // the exact test on the rounded distance decides, as finish() would
+      // compute it.
+      if (!(key < reach2_below)) {
+        const double distance = std::sqrt(d2) * edges.scale;
+        p.distance = distance;
+        if (!std::isfinite(distance)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
+        if (distance > inflated) return detail::PatchOutcome::kBeyondContactDistance;
+      }
+      p.distance = key;
+      p.count = 1;
+      p.points[0] = d;
+      p.depths[0] = edges.scale;
+      return detail::PatchOutcome::kContact;
     }
+    const Vec3 n = cross / std::sqrt(cross2);
+    const double height = n.dot(rel);  // the distance, exact for the face region
+    if (!std::isfinite(height)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
+    // s >= 0 was tested on the unnormalised normal: clamp a rounding below zero.
+    const double distance = std::max(0.0, height);
+    p.normal = n;
     p.distance = distance;
-    if (!std::isfinite(distance)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
     if (distance > inflated) return detail::PatchOutcome::kBeyondContactDistance;
     p.count = 1;
     p.points[0] = center - radius * p.normal;
@@ -238,8 +286,7 @@ namespace {
 
 void sphereContacts(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count, bool boxes_tested,
                     const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
-  const SphereNarrowphase narrowphase{sphere.center, sphere.radius, sphere.radius + settings.contact_distance,
-                                      boxes_tested};
+  const SphereNarrowphase narrowphase(sphere.center, sphere.radius, settings.contact_distance, boxes_tested);
   detail::generateContacts(candidates, count, narrowphase, settings, scratch.impl().filter, contacts);
 }
 

@@ -36,7 +36,9 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cmath>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 namespace meshcontact::detail {
@@ -44,7 +46,7 @@ namespace meshcontact::detail {
 /// What a per-triangle narrowphase reports for one candidate.
 struct Patch {
   Feature feature;
-  double distance = 0.0;  // shape-to-triangle distance: the delayed sort key
+  double distance = 0.0;  // shape-to-triangle distance: the delayed sort key (see DefersEdgesAndVertices)
   Vec3 normal = Vec3::UnitZ();
   int count = 0;
   /// Edge / vertex patches only, optional (0 points: none; the filter resets
@@ -61,6 +63,18 @@ struct Patch {
 };
 
 enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
+
+/// A narrowphase may defer the work of its edge and vertex patches until the
+/// filter has kept them (static constexpr bool kDefersEdgesAndVertices =
+/// true, and finish(const CandidateTriangle&, Patch&)): such a patch carries
+/// its squared distance in `distance`, the filter ranks by it, and finish()
+/// fills the distance, normal, points and depths of the patches it keeps.
+/// The sphere's does: on a floor, nearly all its contacts are edges and
+/// vertices that the filter voids.
+template <class N, class = void>
+struct DefersEdgesAndVertices : std::false_type {};
+template <class N>
+struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesAndVertices>> : std::true_type {};
 
 /// Where a contact's triangle stands in the §5 processing order: face
 /// contacts first (distance -inf: their order among themselves does not
@@ -188,6 +202,7 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 template <class Narrowphase>
 void generateContacts(const CandidateTriangle* candidates, std::size_t count, Narrowphase&& narrowphase,
                       const QuerySettings& settings, FilterScratch& s, std::vector<Contact>& contacts) {
+  constexpr bool deferred = DefersEdgesAndVertices<Narrowphase>::value;
   const bool filter = settings.filter == FilterMode::kVoidedFeatures;
   std::vector<TraceEntry>* trace = settings.trace;
   if (trace) trace->clear();
@@ -215,6 +230,9 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       continue;
     }
     s.patch_candidate[used] = static_cast<std::uint32_t>(i);
+    if constexpr (deferred) {
+      if (!filter && p.feature.type != FeatureType::kFace) narrowphase.finish(c, p);  // kept as it comes
+    }
     const bool face = p.feature.type == FeatureType::kFace || !filter;
     SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
     item.distance = p.distance;
@@ -242,7 +260,12 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     }
     const Verdict verdict = face_only ? Verdict::kFaceContact : voided ? Verdict::kVoided : contactVerdict(p.feature);
     if (!voided || face_only) s.accepted.push_back(item);
-    if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, verdict});
+    if constexpr (deferred) {
+      if (!voided) narrowphase.finish(c, p);
+      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, voided ? std::sqrt(p.distance) : p.distance, verdict});
+    } else {
+      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, verdict});
+    }
   }
 
   // Output in an order that only depends on the triangles' identities.
