@@ -79,6 +79,9 @@ TEST(MeshBuild, DegenerateTrianglesAreCountedAndNeverProduceContacts) {
   // Degenerate triangles are left out of the BVH: the midphase never returns them.
   ASSERT_EQ(trace.size(), 1u);
   EXPECT_EQ(trace[0].triangle, 0u);
+  // Nor are they in the mesh's bounds (vertex 3 at x = 2 is only theirs).
+  EXPECT_EQ(mesh.boundsLo(), Vec3(0, 0, 0));
+  EXPECT_EQ(mesh.boundsHi(), Vec3(1, 1, 0));
 }
 
 TEST(MeshBuild, OnlyDegenerateTrianglesGiveAValidMeshWithNoContacts) {
@@ -87,6 +90,7 @@ TEST(MeshBuild, OnlyDegenerateTrianglesGiveAValidMeshWithNoContacts) {
   TriangleMesh mesh;
   ASSERT_TRUE(mesh.build(vertices, indices).isOk());
   EXPECT_EQ(mesh.degenerateTriangleCount(), 1u);
+  EXPECT_TRUE((mesh.boundsLo().array() > mesh.boundsHi().array()).all());  // empty
   QueryScratch scratch;
   std::vector<Contact> contacts;
   ASSERT_TRUE(collideSphere(mesh, {Vec3(1, 0, 0), 1.0}, {}, scratch, contacts).isOk());

@@ -67,6 +67,8 @@ TriangleMesh& TriangleMesh::operator=(TriangleMesh&& other) noexcept {
   has_duplicate_vertices_ = other.has_duplicate_vertices_;
   built_ = other.built_;
   bvh_depth_ = other.bvh_depth_;
+  bounds_lo_ = other.bounds_lo_;
+  bounds_hi_ = other.bounds_hi_;
   owned_vertices_ = std::move(other.owned_vertices_);
   owned_indices_ = std::move(other.owned_indices_);
   nodes_ = std::move(other.nodes_);
@@ -83,6 +85,8 @@ void TriangleMesh::reset() {
   has_duplicate_vertices_ = false;
   built_ = false;
   bvh_depth_ = 0;
+  bounds_lo_ = Vec3::Constant(std::numeric_limits<double>::infinity());
+  bounds_hi_ = -bounds_lo_;
   owned_vertices_.clear();
   owned_indices_.clear();
   nodes_.clear();
@@ -144,7 +148,11 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
       continue;
     }
     usable.push_back(t);
-    for (int k = 0; k < 3; ++k) referenced[tri[k]] = true;
+    for (int k = 0; k < 3; ++k) {
+      referenced[tri[k]] = true;
+      bounds_lo_ = bounds_lo_.cwiseMin(vertex(tri[k]));
+      bounds_hi_ = bounds_hi_.cwiseMax(vertex(tri[k]));
+    }
   }
 
   // Duplicated vertices: two referenced indices with bitwise-equal positions.

@@ -23,6 +23,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace meshcontact {
@@ -97,6 +98,11 @@ class TriangleMesh {
   }
   const std::uint32_t* triangle(std::uint32_t t) const { return indices_ + 3 * static_cast<std::size_t>(t); }
 
+  /// The box of the triangles that can produce contacts (the non-degenerate
+  /// ones), mesh frame, exact; lo > hi when there are none.
+  const Vec3& boundsLo() const { return bounds_lo_; }
+  const Vec3& boundsHi() const { return bounds_hi_; }
+
   const BvhNodes& bvh() const { return nodes_; }
   int bvhDepth() const { return bvh_depth_; }
   /// Bytes this mesh allocated itself (BVH, plus the arrays when copied).
@@ -126,6 +132,8 @@ class TriangleMesh {
   bool has_duplicate_vertices_ = false;
   bool built_ = false;
   int bvh_depth_ = 0;
+  Vec3 bounds_lo_ = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 bounds_hi_ = Vec3::Constant(-std::numeric_limits<double>::infinity());
   std::vector<double> owned_vertices_;
   std::vector<std::uint32_t> owned_indices_;
   BvhNodes nodes_;
