@@ -1,9 +1,13 @@
 // Properties of the sphere pipeline over seeded random placements.
 #include "test_support.h"
 
+#include <meshcontact/filter.h>
 #include <meshcontact_scenes/oracle.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <tuple>
 #include <thread>
 
 namespace meshcontact {
@@ -272,6 +276,44 @@ TEST(SphereProperties, ReachIsExactForEdgesAndVertices) {
   }
 }
 
+// The same for a face contact, where the plane test screens with the
+// unnormalised normal: s^2 = (2.25 h)^2 rounds above inflated^2 |ab x ac|^2
+// here although the height is exactly h, the reach (a face touching at the
+// reach must not be culled by the screen's rounding).
+TEST(SphereProperties, ReachIsExactForFaces) {
+  SceneMesh m;
+  m.vertices = {0, 0, 0, 1.5, 0, 0, 0, 1.5, 0};
+  m.indices = {0, 1, 2};
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  const double h = 1.0 + 5 * 0x1p-52;
+  const Vec3 centre(0.3, 0.3, h);
+  ASSERT_TRUE(collideSphere(mesh, {centre, h}, {}, scratch, contacts).isOk());
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].feature, Feature::face());
+  EXPECT_EQ(contacts[0].depth, 0.0);
+  ASSERT_TRUE(collideSphere(mesh, {centre, std::nextafter(h, 0.0)}, {}, scratch, contacts).isOk());
+  EXPECT_TRUE(contacts.empty());
+}
+
+// A mesh whose bounds the query box misses is skipped before its hierarchy
+// is walked; the skip must never be stricter than the walk, whose float
+// boxes are rounded outward. A floor 1e-300 below z = 0 and a unit sphere
+// at z = 1: the height rounds to 1, a contact at depth 0, which exact
+// double bounds (top at -1e-300, query box from z = 0) would have skipped.
+TEST(SphereProperties, MeshBoundsSkipNothingTheHierarchyFinds) {
+  SceneMesh m;
+  m.vertices = {0, 0, -1e-300, 1, 0, -1e-300, 0, 1, -1e-300};
+  m.indices = {0, 1, 2};
+  TriangleMesh mesh = testing::buildMesh(m);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  ASSERT_TRUE(collideSphere(mesh, {Vec3(0.25, 0.25, 1.0), 1.0}, {}, scratch, contacts).isOk());
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].depth, 0.0);
+}
+
 // Every contact, kept by the filter or by the naive method, and every
 // trace entry is its triangle's closest point to the centre (Ericson 5.1.5,
 // closestPointOnTriangle): the deferred edge and vertex patches are finished
@@ -320,6 +362,84 @@ TEST(SphereProperties, ContactsAndTraceAreEachTrianglesClosestPoint) {
   }
   EXPECT_GT(edge_or_vertex, kPlacements / 100);  // the naive method keeps many
   EXPECT_GT(voided, kPlacements / 10);
+}
+
+// The filter tests each delayed patch against the triangles ranked before it
+// instead of running the sequential pass of §5 (sort the delayed patches by
+// distance, then void each processed triangle after testing its patch). On
+// random patches over a small pool of shared vertices, with tied distances,
+// repeated triangles and two meshes, both keep exactly the same patches.
+TEST(Filter, RankedTestEqualsTheSequentialPass) {
+  Rng rng(5);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  QuerySettings settings;
+  settings.reduce_manifold = false;
+  int kept_delayed = 0, voided = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const int count = 1 + static_cast<int>(rng.uniform(0, 14));
+    std::vector<CandidateTriangle> candidates(static_cast<std::size_t>(count));
+    std::vector<TrianglePatch> patches(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) {
+      CandidateTriangle& c = candidates[static_cast<std::size_t>(i)];
+      std::uint64_t pool[7] = {0, 1, 2, 3, 4, 5, 6};
+      for (int k = 0; k < 3; ++k) {  // three distinct keys of the pool
+        const int j = k + static_cast<int>(rng.uniform(0, 7 - k));
+        std::swap(pool[k], pool[std::min(j, 6)]);
+        c.keys[k] = pool[k];
+      }
+      c.mesh = rng.uniform() < 0.5 ? 0u : 1u;
+      c.triangle = static_cast<std::uint32_t>(rng.uniform(0, 6));
+      TrianglePatch& p = patches[static_cast<std::size_t>(i)];
+      const double f = rng.uniform();
+      const int index = std::min(2, static_cast<int>(rng.uniform(0, 3)));
+      p.feature = f < 0.15 ? Feature::face() : f < 0.6 ? Feature::edge(index) : Feature::vertex(index);
+      p.distance = 0.1 * std::floor(rng.uniform(0, 4));  // ties on purpose
+      p.count = 1;
+      p.depths[0] = -p.distance;
+    }
+    // The sequential pass, as §5 states it.
+    std::vector<std::array<std::uint64_t, 3>> v;  // voided triangles' keys
+    const auto holds = [&](const std::array<std::uint64_t, 3>& t, Feature f, const std::uint64_t* k) {
+      const auto has = [&](std::uint64_t key) { return t[0] == key || t[1] == key || t[2] == key; };
+      return f.type == FeatureType::kVertex ? has(k[f.index]) : has(k[f.index]) && has(k[(f.index + 1) % 3]);
+    };
+    std::vector<bool> expected(static_cast<std::size_t>(count), false);
+    std::vector<int> delayed;
+    for (int i = 0; i < count; ++i) {
+      const CandidateTriangle& c = candidates[static_cast<std::size_t>(i)];
+      if (patches[static_cast<std::size_t>(i)].feature.type == FeatureType::kFace) {
+        expected[static_cast<std::size_t>(i)] = true;
+        v.push_back({c.keys[0], c.keys[1], c.keys[2]});
+      } else {
+        delayed.push_back(i);
+      }
+    }
+    std::sort(delayed.begin(), delayed.end(), [&](int a, int b) {
+      const auto key = [&](int i) {
+        const CandidateTriangle& c = candidates[static_cast<std::size_t>(i)];
+        return std::make_tuple(patches[static_cast<std::size_t>(i)].distance, c.mesh, c.triangle, i);
+      };
+      return key(a) < key(b);
+    });
+    for (const int i : delayed) {
+      const CandidateTriangle& c = candidates[static_cast<std::size_t>(i)];
+      const Feature f = patches[static_cast<std::size_t>(i)].feature;
+      const bool is_voided = std::any_of(v.begin(), v.end(), [&](const auto& t) { return holds(t, f, c.keys); });
+      expected[static_cast<std::size_t>(i)] = !is_voided;
+      kept_delayed += !is_voided;
+      voided += is_voided;
+      v.push_back({c.keys[0], c.keys[1], c.keys[2]});
+    }
+    // Patches carry their index in the point, to tell repeated triangles apart.
+    for (int i = 0; i < count; ++i) patches[static_cast<std::size_t>(i)].points[0] = Vec3(i, 0, 0);
+    ASSERT_TRUE(filterPatches(candidates.data(), patches.data(), patches.size(), 1.0, settings, scratch, contacts).isOk());
+    std::vector<bool> got(static_cast<std::size_t>(count), false);
+    for (const Contact& c : contacts) got[static_cast<std::size_t>(c.point.x())] = true;
+    ASSERT_EQ(got, expected) << "trial " << trial;
+  }
+  EXPECT_GT(kept_delayed, 1000);
+  EXPECT_GT(voided, 1000);
 }
 
 // Queries are reentrant and thread-safe on a shared mesh: threads with their

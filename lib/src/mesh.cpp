@@ -155,6 +155,11 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     }
   }
 
+  for (int k = 0; k < 3; ++k) {
+    bounds_lo_[k] = nextFloatDown(floatBelow(bounds_lo_[k]));
+    bounds_hi_[k] = nextFloatUp(floatAbove(bounds_hi_[k]));
+  }
+
   // Duplicated vertices: two referenced indices with bitwise-equal positions.
   {
     std::vector<detail::PositionKey> keys;
@@ -182,10 +187,11 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
 
     // Collapse every other level: a node's lanes are its binary node's
     // children, an inner child whose height (edges down to its deepest
-    // leaf) is odd replaced by its own two children. Lanes then sit at even
-    // heights, so a node just above the leaves gets four of them, not two
-    // (collapsing from the root down would leave half-empty nodes all along
-    // the bottom level of a tree of odd depth). Built depth first (a node's
+    // leaf) is odd replaced by its own two children. Inner lanes then sit at
+    // even heights, so in a balanced part of the tree a node just above the
+    // leaves gets four of them, not two (collapsing from the root down would
+    // leave half-empty nodes all along the bottom level of a tree of odd
+    // depth). Where FCL's tree is unbalanced, nodes get 2 or 3 lanes. Built depth first (a node's
     // subtree follows it in memory) with explicit stacks: FCL's tree can be
     // as deep as the mesh is degenerate.
     std::vector<int> height(static_cast<std::size_t>(model.getNumBVs()), 0);
@@ -250,6 +256,7 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
       for (int l = n - 1; l >= 0; --l)
         if (node.child[l] >= 0) pending.push_back({lanes[l], index, l, job.depth + 1});
     }
+    nodes_.shrink_to_fit();  // memoryBytes() counts the capacity
   }
   built_ = true;
   return Status::ok();
@@ -375,7 +382,7 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
     const unsigned inner = bits & ~leafLanes(n);
     if (leaves != 0) {
       const unsigned take = leaves & leaf_ok(n);
-      if (out.size() < found + 4) out.resize(2 * found + 16);
+      if (out.size() < found + 4) out.resize(2 * found + 16);  // slack: not a call per leaf node
       std::uint32_t* slot = out.data() + found;
       for (int l = 0; l < 4; ++l) {
         *slot = static_cast<std::uint32_t>(~n.child[l]);

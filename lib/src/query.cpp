@@ -155,13 +155,16 @@ struct SphereNarrowphase {
   /// tested each triangle's box (rounded outward) against this sphere: the
   /// box reject below would pass all of them again.
   bool boxes_tested = false;
-  /// inflated^2 (1 -+ 2^-40): a squared distance below `reach2_below` is
-  /// surely within reach (see below).
+  /// inflated^2 (1 - 2^-40): a squared distance below it is surely within
+  /// reach (see below). 0, so that the exact tests always decide, when
+  /// inflated^2 would be subnormal, where the margin means nothing.
   double reach2_below = 0.0;
+  double inflated2 = 0.0;
 
   SphereNarrowphase(const Vec3& c, double r, double contact_distance, bool tested)
       : center(c), radius(r), inflated(r + contact_distance), boxes_tested(tested) {
-    reach2_below = inflated * inflated * (1.0 - 0x1p-40);
+    inflated2 = inflated * inflated;
+    if (inflated >= 0x1p-500) reach2_below = inflated2 * (1.0 - 0x1p-40);
   }
 
   // Edge and vertex contacts (most candidates on a floor; nearly all of them
@@ -225,23 +228,43 @@ struct SphereNarrowphase {
     }
     // Not degenerate: |ab x ac|^2 > 1e-24 * longest^4 >= 1e-24, and the
     // scaled components are below 2, so the length is normal and finite.
-    // The plane tests use s = (ab x ac) . rel = height * |ab x ac| and its
-    // square, not the unit normal: most candidates are edge or vertex
-    // contacts that never need it, and its square root and divisions sat on
-    // every candidate's critical path. s^2 neither overflows nor underflows
-    // to a wrong answer: |s| <= ~1e51 within the API's range, and an
-    // underflow only lets a candidate through to the exact tests below.
+    // The plane tests screen with s = (ab x ac) . rel = height * |ab x ac|
+    // and s^2 against inflated^2 |ab x ac|^2, not with the unit normal: most
+    // candidates are edge or vertex contacts that never need it, and its
+    // square root and divisions sat on every candidate's critical path.
+    // The screen decides alone only where it is sure of the height that the
+    // unit normal gives (the test before this screen): s and that height
+    // are both within ~2^-51 sum|cross_i rel_i| (/ |cross|) of their exact
+    // values, so a margin of 2^-40 of that sum, not of |s| (which cancels),
+    // covers them. Near the plane or the reach, the exact tests on the
+    // height decide as before (a face touching exactly at the reach), and
+    // a centre within rounding of the plane that the screen lets through
+    // counts as in front of it, at distance 0.
     const Vec3& cross = edges.cross;
     const double cross2 = edges.cross2;
     const Vec3 rel = center - a;
-    const double s = cross.x() * rel.x() + cross.y() * rel.y() + cross.z() * rel.z();
-    if (s < 0.0) {  // centre behind the plane
+    const double sx = cross.x() * rel.x(), sy = cross.y() * rel.y(), sz = cross.z() * rel.z();
+    const double s = sx + sy + sz;
+    const double margin = 0x1p-40 * (std::abs(sx) + std::abs(sy) + std::abs(sz));
+    if (s < -margin) {  // centre behind the plane
       p.distance = -s / std::sqrt(cross2);
       return detail::PatchOutcome::kBackFacing;
     }
-    if (s * s > inflated * inflated * cross2) {  // the plane is already too far (fig. 1)
+    const double below = s - margin;
+    if (below > 0.0 && below * below > inflated2 * cross2 * (1.0 + 0x1p-40)) {  // the plane is too far (fig. 1)
       p.distance = s / std::sqrt(cross2);
       return detail::PatchOutcome::kBeyondContactDistance;
+    }
+    if (s < 0.0 || s * s > inflated2 * cross2) {
+      const double height = (cross / std::sqrt(cross2)).dot(rel);
+      if (height < 0.0) {
+        p.distance = -height;
+        return detail::PatchOutcome::kBackFacing;
+      }
+      if (height > inflated) {
+        p.distance = height;
+        return detail::PatchOutcome::kBeyondContactDistance;
+      }
     }
     const Vec3 rel_scaled = rel * edges.inv_scale;  // exact
     Vec3 closest;
@@ -254,9 +277,12 @@ struct SphereNarrowphase {
       const double key = d2 * edges.scale * edges.scale;
       // Surely within reach: d^2 s^2 < inflated^2 (1 - 2^-40) puts the
       // rounded distance below `inflated` whatever the roundings (each is
-      // within 2^-52). Otherwise (near the limit, beyond it, or not finite)
-      // the exact test on the rounded distance decides, as finish() would
-      // compute it.
+      // within 2^-52; the margin also covers a compiler that contracts the
+      // squared norm differently). Otherwise (near the limit, beyond it, not
+      // finite, or inflated too small for the margin) the exact test on the
+      // rounded distance decides, as finish() would compute it. The key is
+      // d^2 s^2 exactly unless it underflows (a distance below ~1e-154):
+      // then it still orders below every distance in the normal range.
       if (!(key < reach2_below)) {
         const double distance = std::sqrt(d2) * edges.scale;
         p.distance = distance;

@@ -6,7 +6,9 @@
 //   - face patches are kept as they come and void their triangle;
 //   - edge and vertex patches are delayed and processed in distance order
 //     (ties broken by mesh and triangle index, so the result does not depend
-//     on the midphase's order): a patch whose edge or vertex is voided is
+//     on the midphase's order; a narrowphase that defers its edges and
+//     vertices ranks by squared distance, where two distances that round
+//     alike may still differ): a patch whose edge or vertex is voided is
 //     dropped, and every processed triangle is voided whether or not it
 //     produced a contact (§5a, §5b). So at a delayed patch's turn, V holds
 //     exactly the face contacts' triangles and the triangles of the delayed
@@ -223,7 +225,11 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     const CandidateTriangle& c = candidates[i];
     Patch& p = s.patches[used];
     p.face_count = 0;
-    const PatchOutcome outcome = narrowphase(c, p);
+    PatchOutcome outcome = narrowphase(c, p);
+    // A NaN distance has no place in the §5 order (no rank before or after
+    // it): never a contact, whatever the narrowphase (none is expected to
+    // produce one from finite input).
+    if (outcome == PatchOutcome::kContact && std::isnan(p.distance)) outcome = PatchOutcome::kDegenerate;
     if (!filter) p.face_count = 0;  // the naive method: the closest feature only
     if (outcome != PatchOutcome::kContact) {
       if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, outcomeVerdict(outcome)});
@@ -259,13 +265,16 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       p.face_count = 0;
     }
     const Verdict verdict = face_only ? Verdict::kFaceContact : voided ? Verdict::kVoided : contactVerdict(p.feature);
-    if (!voided || face_only) s.accepted.push_back(item);
+    double distance = p.distance;
     if constexpr (deferred) {
-      if (!voided) narrowphase.finish(c, p);
-      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, voided ? std::sqrt(p.distance) : p.distance, verdict});
-    } else {
-      if (trace) trace->push_back({c.mesh, c.triangle, p.feature, p.distance, verdict});
+      if (!voided) narrowphase.finish(c, p);  // now p.distance is the distance
+      distance = voided ? std::sqrt(p.distance) : p.distance;
     }
+    if (!voided || face_only) {
+      SortItem& kept = s.accepted.emplace_back(item);
+      kept.distance = distance;  // the output order's last key, in one unit
+    }
+    if (trace) trace->push_back({c.mesh, c.triangle, p.feature, distance, verdict});
   }
 
   // Output in an order that only depends on the triangles' identities.

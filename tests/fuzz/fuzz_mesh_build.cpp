@@ -17,21 +17,38 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   MC_FUZZ_CHECK(mesh.isBuilt());
   MC_FUZZ_CHECK(mesh.triangleCount() == raw.indices.size() / 3);
   MC_FUZZ_CHECK(mesh.degenerateTriangleCount() <= mesh.triangleCount());
-  // Every BVH leaf names a valid, non-degenerate triangle; inner lanes
-  // point forward (the hierarchy is built depth first).
+  // Every BVH leaf names a valid, non-degenerate triangle, once; inner lanes
+  // point forward (the hierarchy is built depth first), each child's boxes
+  // lie inside its lane's box, and no path is deeper than bvhDepth() (the
+  // walk's stack is sized by it).
   std::size_t leaves = 0;
   const BvhNodes& nodes = mesh.bvh();
+  std::vector<bool> seen(mesh.triangleCount(), false);
+  std::vector<int> depth(nodes.size(), 1);
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     MC_FUZZ_CHECK(nodes[i].lanes != 0 && nodes[i].lanes <= 0xfu);
+    MC_FUZZ_CHECK(depth[i] <= mesh.bvhDepth());
     for (int lane = 0; lane < 4; ++lane) {
       if (!(nodes[i].lanes >> lane & 1u)) continue;
       const std::int32_t c = nodes[i].child[lane];
       if (c >= 0) {
         MC_FUZZ_CHECK(static_cast<std::size_t>(c) > i && static_cast<std::size_t>(c) < nodes.size());
+        depth[static_cast<std::size_t>(c)] = depth[i] + 1;
+        const BvhNode& child = nodes[static_cast<std::size_t>(c)];
+        for (int l = 0; l < 4; ++l) {
+          if (!(child.lanes >> l & 1u)) continue;
+          for (int k = 0; k < 3; ++k) {
+            MC_FUZZ_CHECK(child.lo[k][l] >= nodes[i].lo[k][lane]);
+            MC_FUZZ_CHECK(child.hi[k][l] <= nodes[i].hi[k][lane]);
+          }
+        }
         continue;
       }
       ++leaves;
-      MC_FUZZ_CHECK(static_cast<std::uint32_t>(~c) < mesh.triangleCount());
+      const auto t = static_cast<std::uint32_t>(~c);
+      MC_FUZZ_CHECK(t < mesh.triangleCount());
+      MC_FUZZ_CHECK(!seen[t]);
+      seen[t] = true;
     }
   }
   MC_FUZZ_CHECK(leaves == mesh.triangleCount() - mesh.degenerateTriangleCount());

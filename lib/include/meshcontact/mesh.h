@@ -98,11 +98,15 @@ class TriangleMesh {
   }
   const std::uint32_t* triangle(std::uint32_t t) const { return indices_ + 3 * static_cast<std::size_t>(t); }
 
-  /// The box of the triangles that can produce contacts (the non-degenerate
-  /// ones), mesh frame, exact; lo > hi when there are none.
+  /// A box around the triangles that can produce contacts (the
+  /// non-degenerate ones), mesh frame: their exact bounds rounded outward to
+  /// float and then by one more float step, so that a query box it misses
+  /// also misses every node of the hierarchy. lo > hi when there are none.
   const Vec3& boundsLo() const { return bounds_lo_; }
   const Vec3& boundsHi() const { return bounds_hi_; }
 
+  /// The hierarchy (4-wide nodes, see BvhNode) and its depth counted in
+  /// those nodes (a one-node hierarchy has depth 1).
   const BvhNodes& bvh() const { return nodes_; }
   int bvhDepth() const { return bvh_depth_; }
   /// Bytes this mesh allocated itself (BVH, plus the arrays when copied).
