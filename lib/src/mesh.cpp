@@ -191,9 +191,9 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     // even heights, so in a balanced part of the tree a node just above the
     // leaves gets four of them, not two (collapsing from the root down would
     // leave half-empty nodes all along the bottom level of a tree of odd
-    // depth). Where FCL's tree is unbalanced, nodes get 2 or 3 lanes. Built depth first (a node's
-    // subtree follows it in memory) with explicit stacks: FCL's tree can be
-    // as deep as the mesh is degenerate.
+    // depth). Where FCL's tree is unbalanced, nodes get 2 or 3 lanes. Built
+    // depth first (a node's subtree follows it in memory) with explicit
+    // stacks: FCL's tree can be as deep as the mesh is degenerate.
     std::vector<int> height(static_cast<std::size_t>(model.getNumBVs()), 0);
     {
       std::vector<int> order, todo{0};  // preorder: children after parents
@@ -201,7 +201,8 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
         const int b = todo.back();
         todo.pop_back();
         order.push_back(b);
-        if (!model.getBV(b).isLeaf()) todo.insert(todo.end(), {model.getBV(b).leftChild(), model.getBV(b).rightChild()});
+        const fcl::BVNode<fcl::AABBd>& bv = model.getBV(b);
+        if (!bv.isLeaf()) todo.insert(todo.end(), {bv.leftChild(), bv.rightChild()});
       }
       for (auto it = order.rbegin(); it != order.rend(); ++it) {
         const fcl::BVNode<fcl::AABBd>& bv = model.getBV(*it);
@@ -356,11 +357,11 @@ inline unsigned leafLanes(const BvhNode& n) {
 }
 
 // Depth-first walk. At each node, the leaves among the overlapping lanes are
-// reported when `leaf_ok` (lanes as bits) accepts them and the inner ones are pushed; the
-// lanes are handled without a branch each (which lanes overlap, which are
-// leaves and which pass the leaf test change from one node to the next: a
-// branch per lane mispredicts often), a stack slot or an output slot is
-// written for every lane and kept only when it counts.
+// reported when `leaf_ok` (lanes as bits) accepts them and the inner ones
+// are pushed. The lanes are handled without a branch each (which lanes
+// overlap, which are leaves and which pass the leaf test change from one
+// node to the next: a branch per lane mispredicts often): a stack slot or an
+// output slot is written for every lane and kept only when it counts.
 template <class LeafTest>
 void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
           std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
@@ -378,8 +379,9 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
   for (;;) {
     const BvhNode& n = nodes[current];
     const unsigned bits = query.overlapping(n);
-    const unsigned leaves = bits & leafLanes(n);
-    const unsigned inner = bits & ~leafLanes(n);
+    const unsigned leaf_lanes = leafLanes(n);
+    const unsigned leaves = bits & leaf_lanes;
+    const unsigned inner = bits & ~leaf_lanes;
     if (leaves != 0) {
       const unsigned take = leaves & leaf_ok(n);
       if (out.size() < found + 4) out.resize(2 * found + 16);  // slack: not a call per leaf node

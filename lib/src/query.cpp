@@ -190,7 +190,7 @@ struct SphereNarrowphase {
       p.normal = d / length;
     } else {
       const detail::ScaledEdges edges = detail::scaledEdges(t.vertices[0], t.vertices[1], t.vertices[2]);
-      p.normal = edges.cross / std::sqrt(edges.cross2);
+      p.normal = edges.unitNormal();
     }
     p.distance = distance;
     p.points[0] = center - radius * p.normal;
@@ -256,7 +256,7 @@ struct SphereNarrowphase {
       return detail::PatchOutcome::kBeyondContactDistance;
     }
     if (s < 0.0 || s * s > inflated2 * cross2) {
-      const double height = (cross / std::sqrt(cross2)).dot(rel);
+      const double height = edges.unitNormal().dot(rel);
       if (height < 0.0) {
         p.distance = -height;
         return detail::PatchOutcome::kBackFacing;
@@ -295,7 +295,7 @@ struct SphereNarrowphase {
       p.depths[0] = edges.scale;
       return detail::PatchOutcome::kContact;
     }
-    const Vec3 n = cross / std::sqrt(cross2);
+    const Vec3 n = edges.unitNormal();
     const double height = n.dot(rel);  // the distance, exact for the face region
     if (!std::isfinite(height)) return detail::PatchOutcome::kDegenerate;  // unreachable within kMaxCoordinate
     // s >= 0 was tested on the unnormalised normal: clamp a rounding below zero.

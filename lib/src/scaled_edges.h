@@ -29,6 +29,9 @@ struct ScaledEdges {
   /// no usable normal. Compared squared; the longest scaled edge is >= 1, so
   /// the bound cannot underflow. !(>) so that NaN counts as degenerate.
   bool degenerate = true;
+
+  /// The unit face normal (ab x ac) / |ab x ac|; only when !degenerate.
+  Vec3 unitNormal() const { return cross / std::sqrt(cross2); }
 };
 
 /// The power of two 2^k <= m < 2^(k+1) and its inverse, for a positive finite

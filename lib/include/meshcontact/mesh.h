@@ -113,8 +113,8 @@ class TriangleMesh {
   std::size_t memoryBytes() const;
 
   /// Appends to `out` the triangles whose bounds overlap the box [lo, hi]
-  /// (mesh frame), in an order fixed by the mesh and the box. `stack` is scratch (kept for reuse).
-  /// Degenerate triangles are never reported.
+  /// (mesh frame), in an order fixed by the mesh and the box. `stack` is
+  /// scratch (kept for reuse). Degenerate triangles are never reported.
   void queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                 std::vector<std::int32_t>& stack) const;
   /// Triangles whose bounding box is within `radius` of `center` (mesh

@@ -146,8 +146,9 @@ class Scratch {
 
 /// Optional, for the fastest queries on large models: a compact copy of each
 /// added model's hierarchy (the core's TriangleMesh: 4-wide float nodes,
-/// ~43-55 bytes per triangle, also built by FCL; the vertices are read in place from the model, the
-/// triangles copied as 32-bit indices), owned by the caller and passed in
+/// 43-62 bytes per triangle, also built by FCL; the vertices are read in
+/// place from the model, the triangles copied as 32-bit indices), owned by
+/// the caller and passed in
 /// Options::cache. Without it, collide() walks the model's own nodes, which
 /// for OBBRSS are 256 bytes each: on a large model a query is then bound by
 /// memory traffic (fcl::collide walks the same nodes). The contacts are the
