@@ -4,6 +4,8 @@
 // is kept (checked against the exact closest point). Bad balls are errors.
 #include "test_support.h"
 
+#include <meshcontact/filter.h>
+
 #include <cmath>
 #include <limits>
 
@@ -60,6 +62,54 @@ TEST(GatherNearSphere, SubsetOfTheBoxQueryKeepingEveryTouchedTriangle) {
   }
   std::printf("gatherCandidatesNearSphere: %zu candidates kept, %zu of the box query's pruned\n", kept, pruned);
   EXPECT_GT(pruned, kept / 10);  // the pruning does something on these scenes
+}
+
+// Position keys are numbered by the midphase with a per-instance cache from
+// vertex index to key in front of the position map (scratch.h): they must
+// still equal exactly where two corners coincide. Checked against
+// assignPositionKeys, which hashes every corner, on instances that stress
+// the cache: the same mesh twice under different poses (equal indices,
+// different positions), a mesh of more vertices than the cache has slots
+// (indices that share a slot), tiles whose boundary corners coincide across
+// meshes, and an unwelded mesh (equal positions under different indices).
+TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
+  const TriangleMesh terrain = testing::buildMesh(scenes::sineTerrain(24, 24, 0.5, 0.4, 3.0, 7));
+  const std::vector<scenes::SceneMesh> tile_meshes = scenes::tiledFloor(2, 2, 3, 0.5, 9);
+  std::vector<TriangleMesh> tiles;
+  for (const scenes::SceneMesh& t : tile_meshes) tiles.push_back(testing::buildMesh(t));
+  const TriangleMesh soup = testing::buildMesh(scenes::unweld(scenes::flatFloor(6, 6, 0.5, 10)));
+  Pose shifted;  // the terrain again, a quarter turn and a shift away: overlapping, no corner in common
+  shifted.rotation = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  shifted.translation = Vec3(12.0, 0.0, 0.25);
+  std::vector<MeshInstance> instances{{&terrain, Pose::identity()}, {&terrain, shifted}, {&soup, Pose::identity()}};
+  for (const TriangleMesh& t : tiles) instances.push_back({&t, Pose::identity()});
+  ASSERT_GT(terrain.vertexCount(), 128u);
+
+  scenes::Rng rng(12);
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> gathered, hashed;
+  std::size_t shared = 0;
+  for (int i = 0; i < testing::scaled(1000); ++i) {
+    const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
+                       rng.uniform(0.1, 1.2)};
+    ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexPosition,
+                                           scratch, gathered)
+                    .isOk());
+    hashed = gathered;
+    ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
+    for (std::size_t a = 0; a < gathered.size(); ++a)
+      for (std::size_t b = a; b < gathered.size(); ++b)
+        for (int k = 0; k < 3; ++k)
+          for (int l = 0; l < 3; ++l) {
+            const bool same = gathered[a].keys[k] == gathered[b].keys[l];
+            ASSERT_EQ(same, hashed[a].keys[k] == hashed[b].keys[l])
+                << "triangles " << gathered[a].mesh << ":" << gathered[a].triangle << " corner " << k << " and "
+                << gathered[b].mesh << ":" << gathered[b].triangle << " corner " << l;
+            ASSERT_EQ(same, gathered[a].vertices[k] == gathered[b].vertices[l]);
+            if (same && gathered[a].mesh != gathered[b].mesh) ++shared;
+          }
+  }
+  EXPECT_GT(shared, 0u) << "no corner shared across meshes: the test did not exercise position keys";
 }
 
 TEST(GatherNearSphere, BadBallsAreErrors) {

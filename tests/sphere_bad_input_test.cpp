@@ -155,6 +155,40 @@ TEST_F(SphereQueryErrors, BadMeshInstancePoses) {
   expectError(collideSphere(&instance, 1, sphere, {}, scratch, contacts), ErrorCode::kMeshNotBuilt, "instance 0");
 }
 
+// A null instance after instances that produced candidates: the error, and
+// nothing gathered is left behind.
+TEST_F(SphereQueryErrors, NullInstanceAfterHitsIsAnErrorWithNoContacts) {
+  const Sphere sphere{Vec3(0.2, 0.2, 0.1), 0.5};
+  const MeshInstance instances[] = {{&mesh, Pose::identity()}, {nullptr, Pose::identity()}};
+  expectError(collideSphere(instances, 2, sphere, {}, scratch, contacts), ErrorCode::kMeshNotBuilt, "instance 1");
+  EXPECT_TRUE(contacts.empty());
+  std::vector<CandidateTriangle> candidates(3);
+  expectError(gatherCandidatesNearSphere(instances, 2, sphere, KeyMode::kAuto, scratch, candidates),
+              ErrorCode::kMeshNotBuilt, "instance 1");
+  EXPECT_TRUE(candidates.empty());
+}
+
+// The queries skip the transform for the identity pose (Pose::isIdentity,
+// compared two numbers at a time): any other number in any of the twelve
+// places is not the identity; -0 in place of 0 is.
+TEST(Pose, IsIdentityOnlyForTheExactIdentity) {
+  EXPECT_TRUE(Pose::identity().isIdentity());
+  for (int i = 0; i < 12; ++i) {
+    const bool diagonal = i < 9 && i % 4 == 0;
+    for (const double v : {diagonal ? -0.0 : 1.0, std::nextafter(diagonal ? 1.0 : 0.0, 2.0), 1e-300,
+                           std::numeric_limits<double>::quiet_NaN()}) {
+      Pose p = Pose::identity();
+      (i < 9 ? p.rotation.data()[i] : p.translation.data()[i - 9]) = v;
+      EXPECT_FALSE(p.isIdentity()) << "entry " << i << " = " << v;
+    }
+    if (!diagonal) {
+      Pose p = Pose::identity();
+      (i < 9 ? p.rotation.data()[i] : p.translation.data()[i - 9]) = -0.0;
+      EXPECT_TRUE(p.isIdentity()) << "entry " << i << " = -0";
+    }
+  }
+}
+
 TEST_F(SphereQueryErrors, ErrorClearsTheTrace) {
   std::vector<TraceEntry> trace(4);
   QuerySettings settings;

@@ -364,7 +364,7 @@ inline unsigned leafLanes(const BvhNode& n) {
 // output slot is written for every lane and kept only when it counts.
 template <class LeafTest>
 void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
-          std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
+          const std::uint32_t* prefetch_indices, std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
   const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
   const QueryBox query(qlo, qhi);
@@ -391,6 +391,16 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
         slot += take >> l & 1u;
       }
       found = static_cast<std::size_t>(slot - out.data());
+#if defined(__SSE2__)
+      // A large mesh's triangles are read right after the walk (the
+      // midphase's gather): fetch their corner indices now, while the walk
+      // goes on.
+      if (prefetch_indices != nullptr)
+        for (unsigned b = take; b != 0; b &= b - 1)
+          _mm_prefetch(reinterpret_cast<const char*>(prefetch_indices + 3 * static_cast<std::size_t>(
+                                                                           ~n.child[__builtin_ctz(b)])),
+                       _MM_HINT_T0);
+#endif
     }
     for (int l = 0; l < 4; ++l) {
       *top = n.child[l];
@@ -415,15 +425,29 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
 void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                             std::vector<std::int32_t>& stack) const {
   if (nodes_.empty()) return;
-  walk(nodes_.data(), bvh_depth_, lo, hi, AnyLeaf{}, out, stack);
+  walk(nodes_.data(), bvh_depth_, lo, hi, AnyLeaf{}, prefetchIndices(), out, stack);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                                std::vector<std::int32_t>& stack) const {
   if (nodes_.empty()) return;
   const Vec3 extent = Vec3::Constant(radius);
-  walk(nodes_.data(), bvh_depth_, center - extent, center + extent, LeafNearSphere{center, radius * radius}, out,
-       stack);
+  walk(nodes_.data(), bvh_depth_, center - extent, center + extent, LeafNearSphere{center, radius * radius},
+       prefetchIndices(), out, stack);
+}
+
+void TriangleMesh::prefetchCorners(const std::vector<std::uint32_t>& triangles) const {
+#if defined(__SSE2__)
+  if (triangle_count_ < kPrefetchTriangleCount) return;
+  // The walk has prefetched the corner indices (prefetchIndices()).
+  for (const std::uint32_t t : triangles) {
+    const std::uint32_t* tri = triangle(t);
+    for (int k = 0; k < 3; ++k)
+      _mm_prefetch(reinterpret_cast<const char*>(vertices_ + 3 * static_cast<std::size_t>(tri[k])), _MM_HINT_T0);
+  }
+#else
+  (void)triangles;
+#endif
 }
 
 }  // namespace meshcontact

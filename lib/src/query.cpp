@@ -38,10 +38,6 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};
-  for (std::size_t m = 0; m < count; ++m) {
-    if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt())
-      return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
-  }
   const KeyMode mode = resolveKeyMode(instances, count, key_mode);
   QueryScratch::Impl& sc = scratch.impl();
   const Vec3 centre = 0.5 * (lo + hi);
@@ -49,6 +45,10 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
 
   bool first_position = true;
   for (std::size_t m = 0; m < count; ++m) {
+    if (instances[m].mesh == nullptr || !instances[m].mesh->isBuilt()) {
+      out.clear();
+      return {ErrorCode::kMeshNotBuilt, "mesh instance " + std::to_string(m) + " is null or not built"};
+    }
     const TriangleMesh& mesh = *instances[m].mesh;
     const Pose& pose = instances[m].pose;
     const bool identity = pose.isIdentity();
@@ -70,7 +70,10 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     }
     // A mesh the box misses is skipped before the walk and its setup (on 16
     // tiles, most instances of every query).
-    if ((local_lo.array() > mesh.boundsHi().array()).any() || (local_hi.array() < mesh.boundsLo().array()).any())
+    const Vec3& mesh_lo = mesh.boundsLo();
+    const Vec3& mesh_hi = mesh.boundsHi();
+    if ((local_lo.x() > mesh_hi.x()) | (local_lo.y() > mesh_hi.y()) | (local_lo.z() > mesh_hi.z()) |
+        (local_hi.x() < mesh_lo.x()) | (local_hi.y() < mesh_lo.y()) | (local_hi.z() < mesh_lo.z()))
       continue;
     sc.hits.clear();
     if (bound)
@@ -89,8 +92,17 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     // overwritten here.
     out.reserve(out.size() + sc.hits.size());
     const std::uint64_t mesh_bits = static_cast<std::uint64_t>(m) << 32;
+    std::uint64_t generation = 0;  // this instance's tag in the vertex-key cache (scratch.h)
+    if (mode == KeyMode::kVertexPosition) {
+      if (++sc.vertex_key_generation == 0) {  // wrapped: stale tags could match again
+        for (QueryScratch::Impl::VertexKeySlot& slot : sc.vertex_keys) slot.tag = 0;
+        sc.vertex_key_generation = 1;
+      }
+      generation = static_cast<std::uint64_t>(sc.vertex_key_generation) << 32;
+    }
     // One instantiation per case (pose applied or not, position or index
     // keys), so that the per-vertex work has no branch.
+    mesh.prefetchCorners(sc.hits);  // (a large mesh only)
     const auto append = [&](auto moved, auto by_position) {
       for (const std::uint32_t t : sc.hits) {
         const std::uint32_t* tri = mesh.triangle(t);
@@ -104,8 +116,19 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
             c.vertices[k] = mesh.vertex(tri[k]);
           }
           if constexpr (decltype(by_position)::value) {
-            const auto next = static_cast<std::uint32_t>(sc.positions.size());
-            c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+            // Equal indices of one instance are equal positions: a vertex
+            // seen by an earlier candidate of this instance reuses its key.
+            const std::uint64_t tag = generation | tri[k];
+            QueryScratch::Impl::VertexKeySlot& slot =
+                sc.vertex_keys[tri[k] & (QueryScratch::Impl::kVertexKeySlots - 1)];
+            if (slot.tag == tag) {
+              c.keys[k] = slot.key;
+            } else {
+              const auto next = static_cast<std::uint32_t>(sc.positions.size());
+              c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+              slot.tag = tag;
+              slot.key = c.keys[k];
+            }
           } else {
             c.keys[k] = mesh_bits | tri[k];
           }

@@ -16,6 +16,18 @@ struct QueryScratch::Impl {
   std::vector<CandidateTriangle> candidates;
   // Position keys: exact position -> dense id, for this query only.
   detail::StampedMap<detail::PositionKey, std::uint32_t, detail::PositionHash> positions;
+  // In front of `positions`: one instance's vertex index -> its position key
+  // (one index is one position), so that the ~3 candidates sharing a vertex
+  // hash its position once. Direct-mapped on the index's low bits; an entry
+  // counts only if its tag holds the current instance's generation, so the
+  // cache is never cleared (generation 0 is never current).
+  struct VertexKeySlot {
+    std::uint64_t tag = 0;  // generation << 32 | vertex index
+    std::uint64_t key = 0;
+  };
+  static constexpr std::size_t kVertexKeySlots = 128;
+  VertexKeySlot vertex_keys[kVertexKeySlots];
+  std::uint32_t vertex_key_generation = 0;
   // Narrowphase + filter.
   detail::FilterScratch filter;
   // Manifold reduction (capsule, box, ...).

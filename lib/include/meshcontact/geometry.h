@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <cstdint>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace meshcontact {
 
@@ -46,7 +49,27 @@ struct Pose {
   }
   /// Exactly the identity (bitwise): lets the query skip the transform and keep
   /// vertex positions bit-for-bit, which position keys rely on.
-  bool isIdentity() const { return rotation == Mat3::Identity() && translation == Vec3::Zero(); }
+  /// (-0 counts as 0.) The twelve numbers are compared two at a time, without
+  /// a branch each: a query over many instances asks this of every one.
+  bool isIdentity() const {
+    const double* r = rotation.data();  // column-major: the diagonal is r[0], r[4], r[8]
+    const double* t = translation.data();
+#if defined(__SSE2__)
+    const __m128d one_zero = _mm_set_pd(0.0, 1.0), zero = _mm_setzero_pd();
+    __m128d eq = _mm_cmpeq_pd(_mm_loadu_pd(r), one_zero);                  // r0 r1
+    eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_loadu_pd(r + 2), zero));          // r2 r3
+    eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_loadu_pd(r + 4), one_zero));      // r4 r5
+    eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_loadu_pd(r + 6), zero));          // r6 r7
+    eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_set_pd(t[0], r[8]), one_zero));  // r8 t0
+    eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_loadu_pd(t + 1), zero));          // t1 t2
+    return _mm_movemask_pd(eq) == 3;
+#else
+    bool zero = true;
+    for (int i : {1, 2, 3, 5, 6, 7}) zero &= r[i] == 0.0;
+    for (int i = 0; i < 3; ++i) zero &= t[i] == 0.0;
+    return zero & (r[0] == 1.0) & (r[4] == 1.0) & (r[8] == 1.0);
+#endif
+  }
 };
 
 /// v / |v|, computed without overflow or underflow (v is first scaled by its
