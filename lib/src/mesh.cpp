@@ -356,28 +356,31 @@ inline unsigned leafLanes(const BvhNode& n) {
 #endif
 }
 
-// Depth-first walk. At each node, the leaves among the overlapping lanes are
-// reported when `leaf_ok` (lanes as bits) accepts them and the inner ones
-// are pushed. The lanes are handled without a branch each (which lanes
-// overlap, which are leaves and which pass the leaf test change from one
-// node to the next: a branch per lane mispredicts often): a stack slot or an
-// output slot is written for every lane and kept only when it counts.
+// Breadth-first walk, `queue` holding the nodes to visit in order. At each
+// node, the leaves among the overlapping lanes are reported when `leaf_ok`
+// (lanes as bits) accepts them and the inner ones are queued and prefetched.
+// On a mesh larger than the caches the walk waits on memory: breadth first, a
+// node is reached only after the rest of its parent's level (and the
+// children queued before it), so the fetches of a level overlap, where depth
+// first the nodes of one path down were fetched one after another. The lanes
+// are handled without a branch each (which lanes overlap, which are leaves
+// and which pass the leaf test change from one node to the next: a branch
+// per lane mispredicts often): a queue slot or an output slot is written for
+// every lane and kept only when it counts.
 template <class LeafTest>
-void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
-          const std::uint32_t* prefetch_indices, std::vector<std::uint32_t>& out, std::vector<std::int32_t>& stack) {
+void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
+          const std::uint32_t* prefetch_indices, std::vector<std::uint32_t>& out, std::vector<std::int32_t>& queue) {
   const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
   const QueryBox query(qlo, qhi);
-  // Each level leaves at most 3 lanes pending, and a node writes up to 4
-  // slots past the top.
-  const std::size_t need = 3 * static_cast<std::size_t>(depth) + 4;
-  if (stack.size() < need) stack.resize(need);
-  std::int32_t* const bottom = stack.data();
-  std::int32_t* top = bottom;
+  // A node writes up to 4 slots past the tail: the queue grows (to the
+  // largest walk seen, then never again) when fewer are left.
+  if (queue.size() < 64) queue.resize(64);
+  queue[0] = 0;
+  std::size_t head = 0, tail = 1;
   std::size_t found = out.size();
-  std::int32_t current = 0;
-  for (;;) {
-    const BvhNode& n = nodes[current];
+  while (head < tail) {
+    const BvhNode& n = nodes[queue[head++]];
     const unsigned bits = query.overlapping(n);
     const unsigned leaf_lanes = leafLanes(n);
     const unsigned leaves = bits & leaf_lanes;
@@ -402,20 +405,22 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
                        _MM_HINT_T0);
 #endif
     }
-    for (int l = 0; l < 4; ++l) {
-      *top = n.child[l];
-      top += inner >> l & 1u;
-    }
+    if (inner != 0) {
+      if (queue.size() < tail + 4) queue.resize(2 * queue.size());
+      std::int32_t* slot = queue.data() + tail;
+      for (int l = 0; l < 4; ++l) {
+        *slot = n.child[l];
+        slot += inner >> l & 1u;
+      }
+      tail = static_cast<std::size_t>(slot - queue.data());
 #if defined(__SSE2__)
-    // On a large mesh the walk waits on memory: fetch the pending nodes now.
-    for (unsigned b = inner; b != 0; b &= b - 1) {
-      const char* next = reinterpret_cast<const char*>(nodes + n.child[__builtin_ctz(b)]);
-      _mm_prefetch(next, _MM_HINT_T0);
-      _mm_prefetch(next + 64, _MM_HINT_T0);
-    }
+      for (unsigned b = inner; b != 0; b &= b - 1) {
+        const char* next = reinterpret_cast<const char*>(nodes + n.child[__builtin_ctz(b)]);
+        _mm_prefetch(next, _MM_HINT_T0);
+        _mm_prefetch(next + 64, _MM_HINT_T0);
+      }
 #endif
-    if (top == bottom) break;
-    current = *--top;
+    }
   }
   out.resize(found);
 }
@@ -423,17 +428,17 @@ void walk(const BvhNode* nodes, int depth, const Vec3& lo, const Vec3& hi, const
 }  // namespace
 
 void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
-                            std::vector<std::int32_t>& stack) const {
+                            std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
-  walk(nodes_.data(), bvh_depth_, lo, hi, AnyLeaf{}, prefetchIndices(), out, stack);
+  walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), out, queue);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
-                               std::vector<std::int32_t>& stack) const {
+                               std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
   const Vec3 extent = Vec3::Constant(radius);
-  walk(nodes_.data(), bvh_depth_, center - extent, center + extent, LeafNearSphere{center, radius * radius},
-       prefetchIndices(), out, stack);
+  walk(nodes_.data(), center - extent, center + extent, LeafNearSphere{center, radius * radius},
+       prefetchIndices(), out, queue);
 }
 
 void TriangleMesh::prefetchCorners(const std::vector<std::uint32_t>& triangles) const {

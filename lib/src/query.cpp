@@ -77,9 +77,9 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
       continue;
     sc.hits.clear();
     if (bound)
-      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits, sc.stack);
+      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits, sc.walk_queue);
     else
-      mesh.queryBox(local_lo, local_hi, sc.hits, sc.stack);
+      mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
     if (mode == KeyMode::kVertexPosition && first_position) {
       // Upper bound on distinct positions of this query: 3 per triangle of

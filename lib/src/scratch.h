@@ -11,7 +11,7 @@ namespace meshcontact {
 
 struct QueryScratch::Impl {
   // Midphase.
-  std::vector<std::int32_t> stack;
+  std::vector<std::int32_t> walk_queue;  // TriangleMesh::querySphere / queryBox
   std::vector<std::uint32_t> hits;
   std::vector<CandidateTriangle> candidates;
   // Position keys: exact position -> dense id, for this query only.

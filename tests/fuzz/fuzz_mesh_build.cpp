@@ -19,8 +19,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   MC_FUZZ_CHECK(mesh.degenerateTriangleCount() <= mesh.triangleCount());
   // Every BVH leaf names a valid, non-degenerate triangle, once; inner lanes
   // point forward (the hierarchy is built depth first), each child's boxes
-  // lie inside its lane's box, and no path is deeper than bvhDepth() (the
-  // walk's stack is sized by it).
+  // lie inside its lane's box, and no path is deeper than bvhDepth().
   std::size_t leaves = 0;
   const BvhNodes& nodes = mesh.bvh();
   std::vector<bool> seen(mesh.triangleCount(), false);

@@ -120,17 +120,20 @@ class TriangleMesh {
   std::size_t memoryBytes() const;
 
   /// Appends to `out` the triangles whose bounds overlap the box [lo, hi]
-  /// (mesh frame), in an order fixed by the mesh and the box. `stack` is
-  /// scratch (kept for reuse). Degenerate triangles are never reported.
+  /// (mesh frame), in an order fixed by the mesh and the box (the
+  /// hierarchy's, breadth first). `queue` is scratch, kept for reuse: it
+  /// grows to the number of nodes the largest query visits, and a query no
+  /// larger than one before it allocates nothing. Degenerate triangles are
+  /// never reported.
   void queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
-                std::vector<std::int32_t>& stack) const;
+                std::vector<std::int32_t>& queue) const;
   /// Triangles whose bounding box is within `radius` of `center` (mesh
   /// frame): queryBox on the sphere's bounding box, each leaf's box also
   /// tested against the sphere, so a triangle whose box only overlaps a
   /// corner of the sphere's box is not reported (it cannot touch the
   /// sphere). Same order and guarantees as queryBox.
   void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
-                   std::vector<std::int32_t>& stack) const;
+                   std::vector<std::int32_t>& queue) const;
 
  private:
   void reset();

@@ -62,7 +62,7 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
 
 /// Stage 1, the midphase. Replaces `out` with every non-degenerate triangle of
 /// every instance whose bounds overlap the query-frame box [lo, hi]. Order:
-/// instance by instance, BVH order within one. Errors: kMeshNotBuilt,
+/// instance by instance, the hierarchy's (breadth first) within one. Errors: kMeshNotBuilt,
 /// kInvalidPose, kInvalidShape (box not finite or lo > hi).
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out);
