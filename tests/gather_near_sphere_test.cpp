@@ -6,6 +6,8 @@
 
 #include <meshcontact/filter.h>
 
+#include "../lib/src/scratch.h"
+
 #include <cmath>
 #include <limits>
 
@@ -85,31 +87,47 @@ TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
   for (const TriangleMesh& t : tiles) instances.push_back({&t, Pose::identity()});
   ASSERT_GT(terrain.vertexCount(), 128u);
 
-  scenes::Rng rng(12);
-  QueryScratch scratch;
-  std::vector<CandidateTriangle> gathered, hashed;
-  std::size_t shared = 0;
-  for (int i = 0; i < testing::scaled(1000); ++i) {
-    const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
-                       rng.uniform(0.1, 1.2)};
-    ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexPosition,
-                                           scratch, gathered)
-                    .isOk());
-    hashed = gathered;
-    ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
-    for (std::size_t a = 0; a < gathered.size(); ++a)
-      for (std::size_t b = a; b < gathered.size(); ++b)
-        for (int k = 0; k < 3; ++k)
-          for (int l = 0; l < 3; ++l) {
-            const bool same = gathered[a].keys[k] == gathered[b].keys[l];
-            ASSERT_EQ(same, hashed[a].keys[k] == hashed[b].keys[l])
-                << "triangles " << gathered[a].mesh << ":" << gathered[a].triangle << " corner " << k << " and "
-                << gathered[b].mesh << ":" << gathered[b].triangle << " corner " << l;
-            ASSERT_EQ(same, gathered[a].vertices[k] == gathered[b].vertices[l]);
-            if (same && gathered[a].mesh != gathered[b].mesh) ++shared;
-          }
+  // Run once as is and once with the cache's generation just short of its
+  // wrap (each instance with hits takes the next one), so the wrap, which
+  // clears the cache, happens within the first queries.
+  for (const std::uint32_t start : {0u, 0xfffffff0u}) {
+    scenes::Rng rng(12);
+    QueryScratch scratch;
+    scratch.impl().vertex_key_generation = start;
+    std::vector<CandidateTriangle> gathered, hashed;
+    std::size_t shared = 0, both_terrains = 0;
+    const int queries = testing::scaled(1000);
+    for (int i = 0; i < queries; ++i) {
+      const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
+                         rng.uniform(0.1, 1.2)};
+      ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexPosition,
+                                             scratch, gathered)
+                      .isOk());
+      hashed = gathered;
+      ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
+      bool terrain[2] = {false, false};
+      for (std::size_t a = 0; a < gathered.size(); ++a) {
+        if (gathered[a].mesh < 2) terrain[gathered[a].mesh] = true;
+        for (std::size_t b = a; b < gathered.size(); ++b)
+          for (int k = 0; k < 3; ++k)
+            for (int l = 0; l < 3; ++l) {
+              const bool same = gathered[a].keys[k] == gathered[b].keys[l];
+              ASSERT_EQ(same, hashed[a].keys[k] == hashed[b].keys[l])
+                  << "triangles " << gathered[a].mesh << ":" << gathered[a].triangle << " corner " << k << " and "
+                  << gathered[b].mesh << ":" << gathered[b].triangle << " corner " << l;
+              ASSERT_EQ(same, gathered[a].vertices[k] == gathered[b].vertices[l]);
+              if (same && gathered[a].mesh != gathered[b].mesh) ++shared;
+            }
+      }
+      both_terrains += terrain[0] && terrain[1];
+    }
+    EXPECT_GT(shared, 0u) << "no corner shared across meshes: the test did not exercise position keys";
+    EXPECT_GT(both_terrains, static_cast<std::size_t>(queries) / 2)
+        << "the terrain's two instances (equal indices, other positions) rarely met in one query";
+    if (start != 0) {
+      EXPECT_LT(scratch.impl().vertex_key_generation, start) << "the generation never wrapped";
+    }
   }
-  EXPECT_GT(shared, 0u) << "no corner shared across meshes: the test did not exercise position keys";
 }
 
 TEST(GatherNearSphere, BadBallsAreErrors) {

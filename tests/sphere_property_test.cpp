@@ -233,6 +233,64 @@ TEST(Midphase, NeverMissesABruteForceTriangle) {
   EXPECT_GT(total_hits, kPlacements);  // the boxes do hit the mesh
 }
 
+// The walk's queue grows to the number of nodes a query visits. Boxes over
+// most of a 20,000-triangle mesh (thousands of nodes, far past the queue's
+// first 64 slots) return exactly the triangles brute force finds, whether
+// the queue starts empty, tiny, or left over from a larger query; the
+// sphere query is checked the same way.
+TEST(Midphase, LargeQueriesGrowTheQueueAndMissNothing) {
+  Rng rng(5);
+  SceneMesh m = scenes::flatFloor(100, 100, 0.1, 9, 0.4);
+  for (std::size_t v = 0; v < m.vertexCount(); ++v) m.vertices[3 * v + 2] = rng.uniform(-0.2, 0.2);
+  TriangleMesh mesh = testing::buildMesh(m);
+  ASSERT_GE(mesh.triangleCount(), 20000u);
+  // Per query kind: triangles that must come back, and those too close to
+  // the query's boundary (within 1e-5, wider than the float rounding of the
+  // hierarchy's boxes) for brute force to be sure either way.
+  struct Expected {
+    std::vector<std::uint32_t> certain;
+    std::size_t borderline = 0;
+  };
+  std::vector<std::int32_t> reused;
+  for (int i = 0; i < 40; ++i) {
+    const Vec3 centre(rng.uniform(2, 8), rng.uniform(2, 8), 0.0);
+    const double r = rng.uniform(1.0, 6.0);
+    const Vec3 lo = centre - Vec3::Constant(r), hi = centre + Vec3::Constant(r);
+    Expected box, ball;
+    for (std::uint32_t t = 0; t < m.triangleCount(); ++t) {
+      Vec3 tlo = m.vertex(m.indices[3 * t]), thi = tlo;
+      for (int k = 1; k < 3; ++k) {
+        tlo = tlo.cwiseMin(m.vertex(m.indices[3 * t + k]));
+        thi = thi.cwiseMax(m.vertex(m.indices[3 * t + k]));
+      }
+      const bool in_box = ((tlo.array() + 1e-5) <= hi.array()).all() && ((lo.array() + 1e-5) <= thi.array()).all();
+      const bool out_box = ((tlo.array() - 1e-5) > hi.array()).any() || ((thi.array() + 1e-5) < lo.array()).any();
+      if (in_box) box.certain.push_back(t);
+      else if (!out_box) ++box.borderline;
+      const double d = (tlo - centre).cwiseMax(centre - thi).cwiseMax(0.0).norm();
+      if (d + 1e-5 <= r) ball.certain.push_back(t);
+      else if (!out_box && d - 1e-5 <= r) ++ball.borderline;
+    }
+    for (int variant = 0; variant < 3; ++variant) {  // a fresh, a tiny and a reused queue
+      std::vector<std::int32_t> fresh, tiny(1);
+      std::vector<std::int32_t>& queue = variant == 0 ? fresh : variant == 1 ? tiny : reused;
+      for (const bool by_ball : {false, true}) {
+        const Expected& expected = by_ball ? ball : box;
+        std::vector<std::uint32_t> hits;
+        if (by_ball) mesh.querySphere(centre, r, hits, queue);
+        else mesh.queryBox(lo, hi, hits, queue);
+        std::sort(hits.begin(), hits.end());
+        ASSERT_EQ(std::adjacent_find(hits.begin(), hits.end()), hits.end()) << "duplicate hit";
+        for (const std::uint32_t t : expected.certain)
+          ASSERT_TRUE(std::binary_search(hits.begin(), hits.end(), t))
+              << (by_ball ? "ball" : "box") << " query " << i << ", queue " << variant << ": missed triangle " << t;
+        ASSERT_LE(hits.size(), expected.certain.size() + expected.borderline) << "a far triangle came back";
+      }
+    }
+  }
+  EXPECT_GT(reused.size(), 1000u) << "the queue never grew: the test did not exercise it";
+}
+
 // Edge and vertex contacts are ranked by squared distance and finished only
 // when kept, but the reach test is still the exact one on the rounded
 // distance: a sphere that touches an edge or a vertex exactly at its radius

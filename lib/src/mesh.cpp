@@ -191,9 +191,11 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     // even heights, so in a balanced part of the tree a node just above the
     // leaves gets four of them, not two (collapsing from the root down would
     // leave half-empty nodes all along the bottom level of a tree of odd
-    // depth). Where FCL's tree is unbalanced, nodes get 2 or 3 lanes. Built
-    // depth first (a node's subtree follows it in memory) with explicit
-    // stacks: FCL's tree can be as deep as the mesh is degenerate.
+    // depth). Where FCL's tree is unbalanced, nodes get 2 or 3 lanes. Laid
+    // out depth first (a node's subtree follows it; laid out breadth first,
+    // as the walk now visits them, measured no faster on the 1M-triangle
+    // terrain), with explicit stacks: FCL's tree can be as deep as the mesh
+    // is degenerate.
     std::vector<int> height(static_cast<std::size_t>(model.getNumBVs()), 0);
     {
       std::vector<int> order, todo{0};  // preorder: children after parents
@@ -253,8 +255,7 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
       }
       for (int l = 0; l < n; ++l) setLane(node, l, lanes[l]);
       nodes_.push_back(node);
-      // Reverse order: the first inner lane is made first, right after its parent.
-      for (int l = n - 1; l >= 0; --l)
+      for (int l = n - 1; l >= 0; --l)  // reverse order: lane 0's subtree is laid out first
         if (node.child[l] >= 0) pending.push_back({lanes[l], index, l, job.depth + 1});
     }
     nodes_.shrink_to_fit();  // memoryBytes() counts the capacity
@@ -430,28 +431,47 @@ void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& 
 void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                             std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
+  const std::size_t before = out.size();
   walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), out, queue);
+  prefetchCorners(out.data() + before, out.size() - before);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                                std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
   const Vec3 extent = Vec3::Constant(radius);
+  const std::size_t before = out.size();
   walk(nodes_.data(), center - extent, center + extent, LeafNearSphere{center, radius * radius},
        prefetchIndices(), out, queue);
+  prefetchCorners(out.data() + before, out.size() - before);
 }
 
-void TriangleMesh::prefetchCorners(const std::vector<std::uint32_t>& triangles) const {
+namespace {
+// ~1 MB of indices and vertices: beyond it a query's triangles are rarely
+// in the caches, and each corner read would be a miss of its own.
+constexpr std::size_t kPrefetchTriangleCount = std::size_t{1} << 15;
+// Corners asked for at once at most: more would evict the first before the
+// gather reads them.
+constexpr std::size_t kPrefetchCornerTriangles = 256;
+}  // namespace
+
+const std::uint32_t* TriangleMesh::prefetchIndices() const {
+  return triangle_count_ >= kPrefetchTriangleCount ? indices_ : nullptr;
+}
+
+void TriangleMesh::prefetchCorners(const std::uint32_t* triangles, std::size_t count) const {
 #if defined(__SSE2__)
   if (triangle_count_ < kPrefetchTriangleCount) return;
-  // The walk has prefetched the corner indices (prefetchIndices()).
-  for (const std::uint32_t t : triangles) {
-    const std::uint32_t* tri = triangle(t);
+  // The walk has prefetched their corner indices (prefetchIndices()).
+  count = std::min(count, kPrefetchCornerTriangles);
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::uint32_t* tri = triangle(triangles[i]);
     for (int k = 0; k < 3; ++k)
       _mm_prefetch(reinterpret_cast<const char*>(vertices_ + 3 * static_cast<std::size_t>(tri[k])), _MM_HINT_T0);
   }
 #else
   (void)triangles;
+  (void)count;
 #endif
 }
 

@@ -77,7 +77,8 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
       continue;
     sc.hits.clear();
     if (bound)
-      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits, sc.walk_queue);
+      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,
+                       sc.walk_queue);
     else
       mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
@@ -101,8 +102,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
       generation = static_cast<std::uint64_t>(sc.vertex_key_generation) << 32;
     }
     // One instantiation per case (pose applied or not, position or index
-    // keys), so that the per-vertex work has no branch.
-    mesh.prefetchCorners(sc.hits);  // (a large mesh only)
+    // keys): the per-vertex work branches only on the key cache.
     const auto append = [&](auto moved, auto by_position) {
       for (const std::uint32_t t : sc.hits) {
         const std::uint32_t* tri = mesh.triangle(t);

@@ -20,12 +20,14 @@ struct QueryScratch::Impl {
   // (one index is one position), so that the ~3 candidates sharing a vertex
   // hash its position once. Direct-mapped on the index's low bits; an entry
   // counts only if its tag holds the current instance's generation, so the
-  // cache is never cleared (generation 0 is never current).
+  // cache is cleared only when the generation wraps (generation 0 is never
+  // current).
   struct VertexKeySlot {
     std::uint64_t tag = 0;  // generation << 32 | vertex index
     std::uint64_t key = 0;
   };
   static constexpr std::size_t kVertexKeySlots = 128;
+  static_assert((kVertexKeySlots & (kVertexKeySlots - 1)) == 0, "slots are picked by masking the index");
   VertexKeySlot vertex_keys[kVertexKeySlots];
   std::uint32_t vertex_key_generation = 0;
   // Narrowphase + filter.

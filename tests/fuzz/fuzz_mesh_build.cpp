@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   MC_FUZZ_CHECK(mesh.triangleCount() == raw.indices.size() / 3);
   MC_FUZZ_CHECK(mesh.degenerateTriangleCount() <= mesh.triangleCount());
   // Every BVH leaf names a valid, non-degenerate triangle, once; inner lanes
-  // point forward (the hierarchy is built depth first), each child's boxes
+  // point forward (the hierarchy is laid out depth first), each child's boxes
   // lie inside its lane's box, and no path is deeper than bvhDepth().
   std::size_t leaves = 0;
   const BvhNodes& nodes = mesh.bvh();

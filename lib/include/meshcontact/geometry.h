@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -47,10 +48,11 @@ struct Pose {
     p.translation = rotation * b.translation + translation;
     return p;
   }
-  /// Exactly the identity (bitwise): lets the query skip the transform and keep
-  /// vertex positions bit-for-bit, which position keys rely on.
-  /// (-0 counts as 0.) The twelve numbers are compared two at a time, without
-  /// a branch each: a query over many instances asks this of every one.
+  /// Every entry == the identity's (so -0 counts as 0, and NaN never
+  /// matches): lets the query skip the transform and keep vertex positions
+  /// bit-for-bit, which position keys rely on. Compared two numbers at a
+  /// time, without a branch each: a query over many instances asks this of
+  /// every one.
   bool isIdentity() const {
     const double* r = rotation.data();  // column-major: the diagonal is r[0], r[4], r[8]
     const double* t = translation.data();

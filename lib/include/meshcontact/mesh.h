@@ -97,13 +97,6 @@ class TriangleMesh {
     return Vec3(p[0], p[1], p[2]);
   }
   const std::uint32_t* triangle(std::uint32_t t) const { return indices_ + 3 * static_cast<std::size_t>(t); }
-  /// Asks the caches for the corner positions of these triangles, all at
-  /// once, before they are read one by one: on a mesh whose arrays outgrow
-  /// the caches (kPrefetchTriangleCount triangles, ~1 MB of indices and
-  /// vertices) each corner would otherwise be a miss of its own. Nothing on
-  /// a smaller mesh. Changes no result.
-  void prefetchCorners(const std::vector<std::uint32_t>& triangles) const;
-  static constexpr std::size_t kPrefetchTriangleCount = std::size_t{1} << 15;
 
   /// A box around the triangles that can produce contacts (the
   /// non-degenerate ones), mesh frame: their exact bounds rounded outward to
@@ -124,7 +117,8 @@ class TriangleMesh {
   /// hierarchy's, breadth first). `queue` is scratch, kept for reuse: it
   /// grows to the number of nodes the largest query visits, and a query no
   /// larger than one before it allocates nothing. Degenerate triangles are
-  /// never reported.
+  /// never reported. On a mesh larger than the caches, the reported
+  /// triangles' corners are prefetched for the caller, who reads them next.
   void queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                 std::vector<std::int32_t>& queue) const;
   /// Triangles whose bounding box is within `radius` of `center` (mesh
@@ -137,9 +131,10 @@ class TriangleMesh {
 
  private:
   void reset();
-  const std::uint32_t* prefetchIndices() const {
-    return triangle_count_ >= kPrefetchTriangleCount ? indices_ : nullptr;
-  }
+  // Prefetching of the triangles a query reports, on a mesh larger than
+  // the caches (mesh.cpp).
+  const std::uint32_t* prefetchIndices() const;
+  void prefetchCorners(const std::uint32_t* triangles, std::size_t count) const;
 
   const double* vertices_ = nullptr;
   const std::uint32_t* indices_ = nullptr;

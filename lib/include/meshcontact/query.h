@@ -62,8 +62,9 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
 
 /// Stage 1, the midphase. Replaces `out` with every non-degenerate triangle of
 /// every instance whose bounds overlap the query-frame box [lo, hi]. Order:
-/// instance by instance, the hierarchy's (breadth first) within one. Errors: kMeshNotBuilt,
-/// kInvalidPose, kInvalidShape (box not finite or lo > hi).
+/// instance by instance, the hierarchy's (breadth first) within one.
+/// Errors: kInvalidShape (box not finite or lo > hi), then kMeshNotBuilt or
+/// kInvalidPose for the first instance that has one; `out` is then empty.
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out);
 
@@ -76,9 +77,11 @@ struct Sphere {
 /// Stage 1 for a ball-shaped query: gatherCandidates on the ball's bounding
 /// box, keeping only the triangles whose (outward-rounded) bounds are within
 /// `bound.radius` of `bound.center` (query frame): on a floor about half the
-/// box's triangles only overlap its corners. Same order and keys as
-/// gatherCandidates. Errors: those of gatherCandidates, and kInvalidShape for
-/// a non-finite centre or a negative or non-finite radius.
+/// box's triangles only overlap its corners. Same order as
+/// gatherCandidates, and the same index keys; position keys are numbered
+/// over this smaller set, so they are equal exactly where gatherCandidates'
+/// are, not the same numbers. Errors: those of gatherCandidates, and
+/// kInvalidShape for a non-finite centre or a negative or non-finite radius.
 Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t count, const Sphere& bound,
                                   KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out);
 
