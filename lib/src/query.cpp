@@ -72,9 +72,13 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     // tiles, most instances of every query).
     const Vec3& mesh_lo = mesh.boundsLo();
     const Vec3& mesh_hi = mesh.boundsHi();
-    if ((local_lo.x() > mesh_hi.x()) | (local_lo.y() > mesh_hi.y()) | (local_lo.z() > mesh_hi.z()) |
-        (local_hi.x() < mesh_lo.x()) | (local_hi.y() < mesh_lo.y()) | (local_hi.z() < mesh_lo.z()))
-      continue;
+    // One branch, not six (| on ints): whether a tile is missed changes from
+    // one instance to the next; short-circuit tests measured ~5% slower on
+    // the tiles.
+    const int missed = static_cast<int>(local_lo.x() > mesh_hi.x()) | static_cast<int>(local_lo.y() > mesh_hi.y()) |
+                       static_cast<int>(local_lo.z() > mesh_hi.z()) | static_cast<int>(local_hi.x() < mesh_lo.x()) |
+                       static_cast<int>(local_hi.y() < mesh_lo.y()) | static_cast<int>(local_hi.z() < mesh_lo.z());
+    if (missed) continue;
     sc.hits.clear();
     if (bound)
       mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,

@@ -66,10 +66,11 @@ struct Pose {
     eq = _mm_and_pd(eq, _mm_cmpeq_pd(_mm_loadu_pd(t + 1), zero));          // t1 t2
     return _mm_movemask_pd(eq) == 3;
 #else
-    bool zero = true;
-    for (int i : {1, 2, 3, 5, 6, 7}) zero &= r[i] == 0.0;
-    for (int i = 0; i < 3; ++i) zero &= t[i] == 0.0;
-    return zero & (r[0] == 1.0) & (r[4] == 1.0) & (r[8] == 1.0);
+    for (int i : {1, 2, 3, 5, 6, 7})
+      if (!(r[i] == 0.0)) return false;
+    for (int i = 0; i < 3; ++i)
+      if (!(t[i] == 0.0)) return false;
+    return r[0] == 1.0 && r[4] == 1.0 && r[8] == 1.0;
 #endif
   }
 };
