@@ -19,6 +19,15 @@ using testing::str;
 
 const int kPlacements = testing::scaled(10000);
 
+// Triangle t's exact double bounds: the brute force the midphase tests use.
+void triangleBounds(const SceneMesh& m, std::uint32_t t, Vec3& lo, Vec3& hi) {
+  lo = hi = m.vertex(m.indices[3 * t]);
+  for (int k = 1; k < 3; ++k) {
+    lo = lo.cwiseMin(m.vertex(m.indices[3 * t + k]));
+    hi = hi.cwiseMax(m.vertex(m.indices[3 * t + k]));
+  }
+}
+
 // On any planar tessellation (random diagonals, vertices jittered in the
 // plane) a sphere whose centre is above the plane and within reach gets
 // exactly one contact, with the plane's normal.
@@ -212,11 +221,8 @@ TEST(Midphase, NeverMissesABruteForceTriangle) {
     std::sort(hits.begin(), hits.end());
     EXPECT_EQ(std::adjacent_find(hits.begin(), hits.end()), hits.end()) << "duplicate hit";
     for (std::uint32_t t = 0; t < m.triangleCount(); ++t) {
-      Vec3 tlo = m.vertex(m.indices[3 * t]), thi = tlo;
-      for (int k = 1; k < 3; ++k) {
-        tlo = tlo.cwiseMin(m.vertex(m.indices[3 * t + k]));
-        thi = thi.cwiseMax(m.vertex(m.indices[3 * t + k]));
-      }
+      Vec3 tlo, thi;
+      triangleBounds(m, t, tlo, thi);
       const bool overlap = (tlo.array() <= hi.array()).all() && (lo.array() <= thi.array()).all();
       const bool found = std::binary_search(hits.begin(), hits.end(), t);
       if (overlap) {
@@ -258,11 +264,8 @@ TEST(Midphase, LargeQueriesGrowTheQueueAndMissNothing) {
     const Vec3 lo = centre - Vec3::Constant(r), hi = centre + Vec3::Constant(r);
     Expected box, ball;
     for (std::uint32_t t = 0; t < m.triangleCount(); ++t) {
-      Vec3 tlo = m.vertex(m.indices[3 * t]), thi = tlo;
-      for (int k = 1; k < 3; ++k) {
-        tlo = tlo.cwiseMin(m.vertex(m.indices[3 * t + k]));
-        thi = thi.cwiseMax(m.vertex(m.indices[3 * t + k]));
-      }
+      Vec3 tlo, thi;
+      triangleBounds(m, t, tlo, thi);
       const bool in_box = ((tlo.array() + 1e-5) <= hi.array()).all() && ((lo.array() + 1e-5) <= thi.array()).all();
       const bool out_box = ((tlo.array() - 1e-5) > hi.array()).any() || ((thi.array() + 1e-5) < lo.array()).any();
       if (in_box) box.certain.push_back(t);

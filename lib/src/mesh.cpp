@@ -357,6 +357,13 @@ inline unsigned leafLanes(const BvhNode& n) {
 #endif
 }
 
+// ~1 MB of indices and vertices: beyond it a query's triangles are rarely
+// in the caches, and each corner read would be a miss of its own.
+constexpr std::size_t kPrefetchTriangleCount = std::size_t{1} << 15;
+// Corners asked for at once at most: more would evict the first before the
+// gather reads them.
+constexpr std::size_t kPrefetchCornerTriangles = 256;
+
 // Breadth-first walk, `queue` holding the nodes to visit in order. At each
 // node, the leaves among the overlapping lanes are reported when `leaf_ok`
 // (lanes as bits) accepts them and the inner ones are queued and prefetched.
@@ -368,9 +375,16 @@ inline unsigned leafLanes(const BvhNode& n) {
 // and which pass the leaf test change from one node to the next: a branch
 // per lane mispredicts often): a queue slot or an output slot is written for
 // every lane and kept only when it counts.
+//
+// `prefetch_indices` (null on a mesh small enough for the caches) and
+// `vertices`: the mesh's arrays, whose entries for the reported triangles
+// are prefetched for the caller, who reads them next (the midphase's
+// gather): the corner indices as leaves are found, the corner positions of
+// the first kPrefetchCornerTriangles once the walk is done.
 template <class LeafTest>
 void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
-          const std::uint32_t* prefetch_indices, std::vector<std::uint32_t>& out, std::vector<std::int32_t>& queue) {
+          const std::uint32_t* prefetch_indices, const double* vertices, std::vector<std::uint32_t>& out,
+          std::vector<std::int32_t>& queue) {
   const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
   const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
   const QueryBox query(qlo, qhi);
@@ -379,7 +393,8 @@ void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& 
   if (queue.size() < 64) queue.resize(64);
   queue[0] = 0;
   std::size_t head = 0, tail = 1;
-  std::size_t found = out.size();
+  const std::size_t first = out.size();
+  std::size_t found = first;
   while (head < tail) {
     const BvhNode& n = nodes[queue[head++]];
     const unsigned bits = query.overlapping(n);
@@ -396,9 +411,7 @@ void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& 
       }
       found = static_cast<std::size_t>(slot - out.data());
 #if defined(__SSE2__)
-      // A large mesh's triangles are read right after the walk (the
-      // midphase's gather): fetch their corner indices now, while the walk
-      // goes on.
+      // Their corner indices, fetched while the walk goes on.
       if (prefetch_indices != nullptr)
         for (unsigned b = take; b != 0; b &= b - 1)
           _mm_prefetch(reinterpret_cast<const char*>(prefetch_indices + 3 * static_cast<std::size_t>(
@@ -424,6 +437,19 @@ void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& 
     }
   }
   out.resize(found);
+#if defined(__SSE2__)
+  if (prefetch_indices != nullptr) {
+    const std::size_t last = std::min(found, first + kPrefetchCornerTriangles);
+    for (std::size_t i = first; i < last; ++i) {
+      const std::uint32_t* tri = prefetch_indices + 3 * static_cast<std::size_t>(out[i]);
+      for (int k = 0; k < 3; ++k)
+        _mm_prefetch(reinterpret_cast<const char*>(vertices + 3 * static_cast<std::size_t>(tri[k])), _MM_HINT_T0);
+    }
+  }
+#else
+  (void)prefetch_indices;
+  (void)vertices;
+#endif
 }
 
 }  // namespace
@@ -431,48 +457,19 @@ void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& 
 void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uint32_t>& out,
                             std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
-  const std::size_t before = out.size();
-  walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), out, queue);
-  prefetchCorners(out.data() + before, out.size() - before);
+  walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), vertices_, out, queue);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                                std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
   const Vec3 extent = Vec3::Constant(radius);
-  const std::size_t before = out.size();
-  walk(nodes_.data(), center - extent, center + extent, LeafNearSphere{center, radius * radius},
-       prefetchIndices(), out, queue);
-  prefetchCorners(out.data() + before, out.size() - before);
+  walk(nodes_.data(), center - extent, center + extent, LeafNearSphere{center, radius * radius}, prefetchIndices(),
+       vertices_, out, queue);
 }
-
-namespace {
-// ~1 MB of indices and vertices: beyond it a query's triangles are rarely
-// in the caches, and each corner read would be a miss of its own.
-constexpr std::size_t kPrefetchTriangleCount = std::size_t{1} << 15;
-// Corners asked for at once at most: more would evict the first before the
-// gather reads them.
-constexpr std::size_t kPrefetchCornerTriangles = 256;
-}  // namespace
 
 const std::uint32_t* TriangleMesh::prefetchIndices() const {
   return triangle_count_ >= kPrefetchTriangleCount ? indices_ : nullptr;
-}
-
-void TriangleMesh::prefetchCorners(const std::uint32_t* triangles, std::size_t count) const {
-#if defined(__SSE2__)
-  if (triangle_count_ < kPrefetchTriangleCount) return;
-  // The walk has prefetched their corner indices (prefetchIndices()).
-  count = std::min(count, kPrefetchCornerTriangles);
-  for (std::size_t i = 0; i < count; ++i) {
-    const std::uint32_t* tri = triangle(triangles[i]);
-    for (int k = 0; k < 3; ++k)
-      _mm_prefetch(reinterpret_cast<const char*>(vertices_ + 3 * static_cast<std::size_t>(tri[k])), _MM_HINT_T0);
-  }
-#else
-  (void)triangles;
-  (void)count;
-#endif
 }
 
 }  // namespace meshcontact

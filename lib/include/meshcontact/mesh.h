@@ -131,10 +131,9 @@ class TriangleMesh {
 
  private:
   void reset();
-  // Prefetching of the triangles a query reports, on a mesh larger than
-  // the caches (mesh.cpp).
+  // The index array when a query should prefetch the triangles it reports
+  // (a mesh larger than the caches), else null (mesh.cpp).
   const std::uint32_t* prefetchIndices() const;
-  void prefetchCorners(const std::uint32_t* triangles, std::size_t count) const;
 
   const double* vertices_ = nullptr;
   const std::uint32_t* indices_ = nullptr;
