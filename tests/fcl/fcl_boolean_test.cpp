@@ -66,10 +66,26 @@ bool anyCandidateTouches(const TriangleMesh& mesh, const SupportShape& shape, co
   return false;
 }
 
+// Whether FCL's own test finds `shape` at `tf` overlapping triangle t of
+// the scene (a model of that triangle alone).
+bool fclOverlapsTriangle(const SceneMesh& scene, int t, const std::shared_ptr<::fcl::CollisionGeometryd>& shape,
+                         const ::fcl::Transform3d& tf) {
+  auto one = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
+  one->beginModel();
+  one->addTriangle(scene.vertex(scene.indices[3 * t]), scene.vertex(scene.indices[3 * t + 1]),
+                   scene.vertex(scene.indices[3 * t + 2]));
+  one->endModel();
+  const ::fcl::CollisionObjectd m(one);
+  const ::fcl::CollisionObjectd s(shape, tf);
+  ::fcl::CollisionResultd result;
+  ::fcl::collide(&m, &s, ::fcl::CollisionRequestd(1, false), result);
+  return result.isCollision();
+}
+
 TEST(Boolean, SupportShapesAnswerAsTheContactsQuery) {
   const SceneMesh scenes_[2] = {flat(), sine()};
   const char* const names[2] = {"flat", "sine"};
-  int hits = 0, total = 0;
+  int hits = 0, total = 0, through = 0;
   for (int k = 0; k < 2; ++k) {
     const SceneMesh& scene = scenes_[k];
     TriangleMesh core_mesh;
@@ -124,6 +140,13 @@ TEST(Boolean, SupportShapesAnswerAsTheContactsQuery) {
             EXPECT_GE(check.triangle, 0) << config;
             EXPECT_LT(check.triangle, static_cast<int>(scene.triangleCount())) << config;
           }
+          // The fallback's contact is on a triangle FCL itself finds the
+          // shape overlapping (the first one the check reached).
+          if (check.hit && check.report.through_contacts == 1) ++through;
+          if (check.hit && check.report.through_contacts == 1 && check.triangle >= 0) {
+            EXPECT_TRUE(fclOverlapsTriangle(scene, check.triangle, geometry, s.getTransform()))
+                << config << ": the fallback reported triangle " << check.triangle;
+          }
           hits += alone;
           ++total;
         }
@@ -134,6 +157,9 @@ TEST(Boolean, SupportShapesAnswerAsTheContactsQuery) {
   // Mostly in contact, not all: both answers are exercised.
   EXPECT_GT(hits, total / 4);
   EXPECT_LT(hits, total * 19 / 20);
+  // Shapes passed through the surface: the fallback's case is exercised.
+  EXPECT_GT(through, total / 50);
+  std::printf("%d of %d checks in contact, %d by the fallback\n", hits, total, through);
 }
 
 }  // namespace

@@ -205,9 +205,10 @@ struct Report {
   /// triangle it touches gets none) or when a core shape with a rounding
   /// margin misses a contact the sharp FCL shape makes. One contact is then
   /// added, so that the in-collision answer agrees with fcl::collide: on the
-  /// overlapping triangle the shape reaches deepest through, with its face
-  /// normal (the way out of a one-sided surface), the depth that clears its
-  /// plane, and the shape's deepest point.
+  /// overlapping triangle the shape reaches deepest through (collision
+  /// checking: the first overlapping one the check visits, nearest first),
+  /// with its face normal (the way out of a one-sided surface), the depth
+  /// that clears its plane, and the shape's deepest point.
   std::size_t through_contacts = 0;
   /// Contacts appended to the result.
   std::size_t added = 0;
