@@ -121,13 +121,13 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
 }
 
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
-                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out,
+                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out, bool first_overlap,
                     const std::uint32_t* order) {
   bool found = false;
   // FCL's own tolerance decides touching pairs; this band only skips
   // triangles whose plane the shape clearly does not reach.
   const double band = 1e-6 * shape.size;
-  for (std::size_t k = 0; k < count && !(order && found); ++k) {
+  for (std::size_t k = 0; k < count && !(first_overlap && found); ++k) {
     const CandidateTriangle& c = candidates[order ? order[k] : k];
     const Vec3& a = c.vertices[0];
     const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
@@ -417,14 +417,11 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   rep.contacts = sc.contacts.size();
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     // Collision checking takes the first overlapping candidate in the order
-    // the check visited them (nearest the shape first).
-    if (checking && !compact) {
-      sc.order.resize(sc.candidates.size());
-      std::iota(sc.order.begin(), sc.order.end(), 0u);
-    }
+    // the check visited them (nearest the shape first): the walk's order, or
+    // with a cache the sorted one.
     Contact through;
     if (detail::throughContact(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), &request, through,
-                               checking ? sc.order.data() : nullptr)) {
+                               checking, checking && compact ? sc.order.data() : nullptr)) {
       sc.contacts.push_back(through);
       rep.through_contacts = 1;
     }

@@ -245,13 +245,13 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
 /// reported); writes the contact of the one the shape reaches deepest through
 /// to `out` (query frame: the face normal, the depth that clears the plane,
 /// the shape's deepest point) and returns true, or returns false.
-/// Collision checking (`order` given): the candidates are visited in that
-/// order (indices into `candidates`, `count` of them) and the first that
-/// overlaps is the one reported: a boolean request needs one, and FCL's
-/// test on the others costs microseconds each.
+/// Collision checking (`first_overlap`): the candidates are visited in
+/// `order` (indices into `candidates`, `count` of them; null: as given) and
+/// the first that overlaps is the one reported: a boolean request needs one,
+/// and FCL's test on the others costs microseconds each.
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                     std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out,
-                    const std::uint32_t* order = nullptr);
+                    bool first_overlap = false, const std::uint32_t* order = nullptr);
 
 }  // namespace meshcontact::fcl::detail
 
