@@ -424,6 +424,31 @@ TEST(DropInBadInput, UnfinishedModel) {
   EXPECT_EQ(fcl::postFilter(&mesh, &sphere, contactsRequest(), raw, cleaned).code(), ErrorCode::kMeshNotBuilt);
 }
 
+TEST(DropInBadInput, TriangleIndexEditedOutOfRange) {
+  // tri_indices is a public member: an edit after endModel() can point a
+  // corner past the vertex array. The walk over the model reports it (with
+  // contacts, where the leaves are read after the walk, and in collision
+  // checking, where each is read when reached) and never reads that vertex.
+  BadInput b;
+  const auto past_end = static_cast<std::size_t>(b.model->num_vertices) + 7;
+  for (int t = 0; t < b.model->num_tris; ++t) {
+    const ::fcl::Triangle tri = b.model->tri_indices[t];
+    b.model->tri_indices[t].set(tri[0], tri[1], past_end);
+  }
+  ::fcl::CollisionObjectd mesh(b.model);
+  // Both below the surface (z = 0.3 at x = y = 1): nodes and leaves are reached.
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), at(Vec3(1, 1, 0.1)));
+  // Collision checking: one more contact wanted, contacts off (expectError's
+  // result already holds one contact, so that one more is all the room left).
+  const ::fcl::CollisionRequestd checking(2, false);
+  for (const ::fcl::CollisionObjectd* shape : {&sphere, &box}) {
+    SCOPED_TRACE(shape == &sphere ? "sphere" : "box");
+    b.expectError(&mesh, shape, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end));
+    b.expectError(shape, &mesh, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end), checking);
+  }
+}
+
 TEST(DropInBadInput, PointCloudModel) {
   BadInput b;
   auto cloud = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();

@@ -104,33 +104,45 @@ Vec3 nodeCenter(const BV& b) {
   return b.center();
 }
 
-// The candidate of leaf triangle t, appended to `out` unless it lies outside
-// the query's bounds or is degenerate.
+// The error of leaf triangle t, one of whose corners indexes past the
+// vertices (found by appendTriangle).
 template <class BV>
-Status appendTriangle(const ::fcl::BVHModel<BV>& m, int t, const QueryVolume& q, const Pose& to_query,
-                      bool identity, std::uint32_t mesh_index, std::vector<CandidateTriangle>& out) {
+Status indexError(const ::fcl::BVHModel<BV>& m, int t) {
+  const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
+  int k = 0;
+  while (k < 2 && tri[k] < static_cast<std::size_t>(m.num_vertices)) ++k;
+  return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " corner " + std::to_string(k) +
+                                           " references vertex " + std::to_string(tri[k]) + " of a model with " +
+                                           std::to_string(m.num_vertices) + " vertices"};
+}
+
+// Appends the candidate of leaf triangle t to `out`, unless it lies outside
+// the query's bounds or is degenerate. False (nothing appended) when a
+// corner indexes past the vertices: see indexError. Inlined, and no Status
+// (a string) made per leaf: it runs for every leaf.
+template <class BV>
+[[gnu::always_inline]] inline bool appendTriangle(const ::fcl::BVHModel<BV>& m, int t, const QueryVolume& q,
+                                                  const Pose& to_query, bool identity, std::uint32_t mesh_index,
+                                                  std::vector<CandidateTriangle>& out) {
   // fcl::Triangle is three size_t (standard layout); its operator[] is
   // not inline in libfcl, and this loop is hot.
   const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
   CandidateTriangle c;
   for (int k = 0; k < 3; ++k) {
     const std::size_t v = tri[k];
-    if (v >= static_cast<std::size_t>(m.num_vertices))
-      return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " corner " + std::to_string(k) +
-                                               " references vertex " + std::to_string(v) + " of a model with " +
-                                               std::to_string(m.num_vertices) + " vertices"};
+    if (v >= static_cast<std::size_t>(m.num_vertices)) return false;
     c.vertices[k] = identity ? Vec3(m.vertices[v]) : to_query.apply(m.vertices[v]);
   }
   if (!q.ball_only) {
     const Vec3 lo = c.vertices[0].cwiseMin(c.vertices[1]).cwiseMin(c.vertices[2]);
     const Vec3 hi = c.vertices[0].cwiseMax(c.vertices[1]).cwiseMax(c.vertices[2]);
-    if ((lo.array() > q.hi.array()).any() || (hi.array() < q.lo.array()).any()) return Status::ok();
+    if ((lo.array() > q.hi.array()).any() || (hi.array() < q.lo.array()).any()) return true;
   }
-  if (isDegenerateTriangle(c.vertices[0], c.vertices[1], c.vertices[2])) return Status::ok();
+  if (isDegenerateTriangle(c.vertices[0], c.vertices[1], c.vertices[2])) return true;
   c.mesh = mesh_index;
   c.triangle = static_cast<std::uint32_t>(t);
   out.push_back(c);
-  return Status::ok();
+  return true;
 }
 
 template <class BV>
@@ -181,8 +193,7 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     const int t = node.primitiveId();
     if (visitor) {
       const std::size_t before = out.size();
-      const Status s = appendTriangle(m, t, q, to_query, identity, mesh_index, out);
-      if (!s) return s;
+      if (!appendTriangle(m, t, q, to_query, identity, mesh_index, out)) return indexError(m, t);
       if (out.size() > before && visitor->visit(out.back())) break;
       continue;
     }
@@ -203,10 +214,8 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     for (int k = 0; k < 3; ++k)
       if (tri[k] < vertex_count) __builtin_prefetch(&m.vertices[tri[k]]);
   }
-  for (std::size_t i = 0; i < leaves; ++i) {
-    const Status s = appendTriangle(m, stack[i], q, to_query, identity, mesh_index, out);
-    if (!s) return s;
-  }
+  for (std::size_t i = 0; i < leaves; ++i)
+    if (!appendTriangle(m, stack[i], q, to_query, identity, mesh_index, out)) return indexError(m, stack[i]);
   return Status::ok();
 }
 
