@@ -201,8 +201,8 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     // fetches (the model is walked cold, like its nodes). Read there and
     // then, every leaf would wait for both in turn; gathered after the walk,
     // all the leaves' fetches are in flight together: the triangle records
-    // now, the vertices in the pass below. (~10% of a sphere query on the
-    // 100k-triangle floor of benchmarks/fcl_bench.cpp.)
+    // now, the vertices in the pass below. (8-12% of a sphere, capsule or
+    // box query on the 100k-triangle meshes of benchmarks/fcl_bench.cpp.)
     __builtin_prefetch(&m.tri_indices[t]);
     stack[leaves++] = t;
   }
