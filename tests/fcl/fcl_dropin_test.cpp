@@ -424,11 +424,12 @@ TEST(DropInBadInput, UnfinishedModel) {
   EXPECT_EQ(fcl::postFilter(&mesh, &sphere, contactsRequest(), raw, cleaned).code(), ErrorCode::kMeshNotBuilt);
 }
 
-TEST(DropInBadInput, TriangleIndexEditedOutOfRange) {
-  // tri_indices is a public member: an edit after endModel() can point a
-  // corner past the vertex array. The walk over the model reports it (with
-  // contacts, where the leaves are read after the walk, and in collision
-  // checking, where each is read when reached) and never reads that vertex.
+TEST(DropInBadInput, TrianglesOrVertexCountEditedAfterEndModel) {
+  // tri_indices and num_vertices are public members: an edit after
+  // endModel() can point a corner past the vertex array. The walk over the
+  // model reports it (with contacts, where the leaves are read after the
+  // walk, and in collision checking, where each is read when reached)
+  // instead of building a candidate from past the array.
   BadInput b;
   const auto past_end = static_cast<std::size_t>(b.model->num_vertices) + 7;
   for (int t = 0; t < b.model->num_tris; ++t) {
@@ -447,6 +448,15 @@ TEST(DropInBadInput, TriangleIndexEditedOutOfRange) {
     b.expectError(&mesh, shape, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end));
     b.expectError(shape, &mesh, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end), checking);
   }
+  // A vertex count edited to zero or below: refused before any walk (with
+  // no vertices, FCL's getModelType() no longer says triangles).
+  const int vertex_count = b.model->num_vertices;
+  for (const auto& [bad, words] : {std::pair<int, const char*>{0, "not a triangle model"}, {-1, "no vertices"}}) {
+    b.model->num_vertices = bad;
+    b.expectError(&mesh, &sphere, ErrorCode::kMeshNotBuilt, words);
+    b.expectError(&sphere, &mesh, ErrorCode::kMeshNotBuilt, words, checking);
+  }
+  b.model->num_vertices = vertex_count;
 }
 
 TEST(DropInBadInput, PointCloudModel) {

@@ -207,7 +207,7 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     stack[leaves++] = t;
   }
   if (visitor) return Status::ok();
-  const auto vertex_count = static_cast<std::size_t>(std::max(m.num_vertices, 0));
+  const auto vertex_count = static_cast<std::size_t>(m.num_vertices);  // > 0 (checkModel)
   for (std::size_t i = 0; i < leaves; ++i) {
     const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[stack[i]]);
     // An index out of range is reported below, never fetched.
@@ -243,8 +243,12 @@ Status checkModel(const MeshDesc& mesh, const char* what) {
                   "; call endModel() after beginModel()/addSubModel())"};
     if (m.getModelType() != ::fcl::BVH_MODEL_TRIANGLES)
       return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel is not a triangle model (a point cloud?)"};
-    if (m.num_tris <= 0 || m.getNumBVs() <= 0 || m.vertices == nullptr || m.tri_indices == nullptr)
+    // num_vertices and num_tris are public, as are the arrays: checked here
+    // (once per query), so that the walk's index checks can rely on them.
+    if (m.num_tris <= 0 || m.getNumBVs() <= 0 || m.tri_indices == nullptr)
       return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel has no triangles"};
+    if (m.num_vertices <= 0 || m.vertices == nullptr)
+      return {ErrorCode::kMeshNotBuilt, std::string(what) + ": the BVHModel has no vertices"};
     return Status::ok();
   });
 }
