@@ -17,6 +17,13 @@ namespace {
 static_assert(std::is_standard_layout<::fcl::Triangle>::value && sizeof(::fcl::Triangle) == 3 * sizeof(std::size_t),
               "fcl::Triangle is read as three size_t");
 
+// Triangle t's three vertex indices. fcl::Triangle's operator[] is not
+// inline in libfcl, and the walk reads every leaf's.
+template <class BV>
+const std::size_t* corners(const ::fcl::BVHModel<BV>& m, int t) {
+  return reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
+}
+
 template <class BV>
 const ::fcl::BVHModel<BV>& model(const MeshDesc& mesh) {
   return static_cast<const ::fcl::BVHModel<BV>&>(*mesh.geometry);
@@ -108,7 +115,7 @@ Vec3 nodeCenter(const BV& b) {
 // vertices (found by appendTriangle).
 template <class BV>
 Status indexError(const ::fcl::BVHModel<BV>& m, int t) {
-  const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
+  const std::size_t* tri = corners(m, t);
   int k = 0;
   while (k < 2 && tri[k] < static_cast<std::size_t>(m.num_vertices)) ++k;
   return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " corner " + std::to_string(k) +
@@ -124,9 +131,7 @@ template <class BV>
 [[gnu::always_inline]] inline bool appendTriangle(const ::fcl::BVHModel<BV>& m, int t, const QueryVolume& q,
                                                   const Pose& to_query, bool identity, std::uint32_t mesh_index,
                                                   std::vector<CandidateTriangle>& out) {
-  // fcl::Triangle is three size_t (standard layout); its operator[] is
-  // not inline in libfcl, and this loop is hot.
-  const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[t]);
+  const std::size_t* tri = corners(m, t);
   CandidateTriangle c;
   for (int k = 0; k < 3; ++k) {
     const std::size_t v = tri[k];
@@ -203,13 +208,13 @@ Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pos
     // all the leaves' fetches are in flight together: the triangle records
     // now, the vertices in the pass below. (8-12% of a sphere, capsule or
     // box query on the 100k-triangle meshes of benchmarks/fcl_bench.cpp.)
-    __builtin_prefetch(&m.tri_indices[t]);
+    __builtin_prefetch(corners(m, t));
     stack[leaves++] = t;
   }
   if (visitor) return Status::ok();
   const auto vertex_count = static_cast<std::size_t>(m.num_vertices);  // > 0 (checkModel)
   for (std::size_t i = 0; i < leaves; ++i) {
-    const std::size_t* tri = reinterpret_cast<const std::size_t*>(&m.tri_indices[stack[i]]);
+    const std::size_t* tri = corners(m, stack[i]);
     // An index out of range is reported below, never fetched.
     for (int k = 0; k < 3; ++k)
       if (tri[k] < vertex_count) __builtin_prefetch(&m.vertices[tri[k]]);
