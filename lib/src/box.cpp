@@ -76,6 +76,7 @@
 
 #include "capsule_segment.h"
 #include "manifold_reduction.h"
+#include "scaled_edges.h"
 #include "scratch.h"
 #include "validate.h"
 #include "voided_features.h"
@@ -469,7 +470,7 @@ struct BoxNarrowphase {
       patch.depths[c] = poly.depth[keep[c]];
       deepest = std::max(deepest, poly.depth[keep[c]]);
     }
-    patch.normal = pose.rotation * N;
+    patch.normal = queryFrameNormal(N);
     patch.distance = -deepest;
     return true;
   }
@@ -519,6 +520,12 @@ struct BoxNarrowphase {
     return n;
   }
 
+  /// A unit normal of the box frame, in the query frame. The validation
+  /// accepts rotations with |R^T R - I| up to 1e-9 per entry, and such an R
+  /// stretches a unit vector by up to ~1.5e-9 (3 * 1e-9 / 2, along (1,1,1)):
+  /// normalizing keeps Contact::normal unit for every accepted pose.
+  Vec3 queryFrameNormal(const Vec3& n) const { return (pose.rotation * n).normalized(); }
+
   detail::PatchOutcome operator()(const CandidateTriangle& tri, detail::Patch& patch) const {
     using detail::PatchOutcome;
     Vec3 v[3];
@@ -532,14 +539,12 @@ struct BoxNarrowphase {
       return PatchOutcome::kBeyondContactDistance;
     }
     const Vec3 edges[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
-    Vec3 n = edges[0].cross(v[2] - v[0]);
-    const double twice_area = n.norm();
-    const double longest2 = std::max({edges[0].squaredNorm(), edges[1].squaredNorm(), edges[2].squaredNorm()});
-    if (!(twice_area > 1e-12 * longest2)) {
+    const detail::ScaledEdges scaled = detail::scaledEdges(v[0], v[1], v[2]);  // the build's test, at any scale
+    if (scaled.degenerate) {
       patch.distance = v[0].norm();
       return PatchOutcome::kDegenerate;
     }
-    n /= twice_area;
+    const Vec3 n = scaled.unitNormal();
     const double tie = kTie * scale;
     const double flat = flat_;
 
@@ -653,7 +658,7 @@ struct BoxNarrowphase {
         patch.count = 1;
         patch.points[0] = pose.apply(s);
         patch.depths[0] = thickness - centre_height;
-        patch.normal = pose.rotation * n;
+        patch.normal = queryFrameNormal(n);
         patch.distance = -patch.depths[0];
       }
       return PatchOutcome::kContact;
@@ -717,7 +722,7 @@ struct BoxNarrowphase {
       const Vec3& a = v[j];
       const Vec3& b = v[(j + 1) % 3];
       const Vec3& opposite = v[(j + 2) % 3];
-      const bool vertex_higher = N.dot(opposite - a) > 1e-9 * std::sqrt(longest2);
+      const bool vertex_higher = N.dot(opposite - a) > 1e-9 * scaled.longestEdge();
       const detail::SegmentPair pair =
           vertex_higher ? detail::closestSegmentSegment(lo, hi, opposite, opposite) : detail::closestSegmentSegment(lo, hi, a, b);
       poly.pts[0] = pair.p;

@@ -35,6 +35,7 @@
 
 #include "capsule_segment.h"
 #include "manifold_reduction.h"
+#include "scaled_edges.h"
 #include "scratch.h"
 #include "validate.h"
 #include "voided_features.h"
@@ -81,13 +82,12 @@ struct CapsuleNarrowphase {
   detail::PatchOutcome operator()(const CandidateTriangle& tri, detail::Patch& patch) const {
     using detail::PatchOutcome;
     const Vec3* v = tri.vertices;
-    const Vec3 ab = v[1] - v[0], ac = v[2] - v[0];
-    const Vec3 n = normalizedOr(ab.cross(ac), Vec3::Zero());
-    if (isDegenerateTriangle(v[0], v[1], v[2]) || n.isZero()) {  // the build's test, plus under/overflow
+    const detail::ScaledEdges scaled = detail::scaledEdges(v[0], v[1], v[2]);  // the build's test, at any scale
+    if (scaled.degenerate) {
       patch.distance = (0.5 * (p0 + p1) - v[0]).norm();
       return PatchOutcome::kDegenerate;
     }
-    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (v[2] - v[1]).squaredNorm()});
+    const Vec3 n = scaled.unitNormal();
     const double h0 = n.dot(p0 - v[0]), h1 = n.dot(p1 - v[0]);
     if (h0 < 0.0 && h1 < 0.0) {
       patch.distance = -std::max(h0, h1);
@@ -170,7 +170,7 @@ struct CapsuleNarrowphase {
     patch.distance = d;
     if (d > reach) return PatchOutcome::kBeyondContactDistance;
     // §4b: on the feature itself the direction is undefined: the face normal.
-    const double tiny = 1e-12 * std::max(scale, std::sqrt(longest2));
+    const double tiny = 1e-12 * std::max(scale, scaled.longestEdge());
     patch.normal = d > tiny ? normalizedOr(best.p - best.q, n) : n;
     patch.count = 1;
     patch.points[0] = best.p - radius * patch.normal;

@@ -54,6 +54,7 @@
 #include "hull3d.h"
 #include "manifold_reduction.h"
 #include "meshcontact/triangle.h"
+#include "scaled_edges.h"
 #include "scratch.h"
 #include "validate.h"
 #include "voided_features.h"
@@ -448,15 +449,13 @@ struct ConvexNarrowphase {
     using detail::PatchOutcome;
     const Vec3* tri = t.vertices;
     const Vec3 &a = tri[0], &b = tri[1], &c = tri[2];
-    const Vec3 ab = b - a, ac = c - a;
-    Vec3 n = ab.cross(ac);
-    const double twice_area = n.norm();
-    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
-    if (!(twice_area > 1e-12 * longest2)) {
+    const detail::ScaledEdges scaled = detail::scaledEdges(a, b, c);  // the build's test, at any scale
+    if (scaled.degenerate) {
       p.distance = (center - a).norm();
       return PatchOutcome::kDegenerate;
     }
-    n /= twice_area;
+    const Vec3 n = scaled.unitNormal();
+    const double longest = scaled.longestEdge();
     if (counters->core_intersects || counters->support_not_finite) {
       // This pass is void (to be redone, or an error): skip the work.
       p.distance = 0.0;
@@ -556,7 +555,7 @@ struct ConvexNarrowphase {
     // difference's points then have the size of the problem, not of the
     // query frame's coordinates (a mesh 1e5 from its origin would otherwise
     // cost GJK five digits).
-    const Vec3 local_tri[3] = {Vec3::Zero(), ab, ac};
+    const Vec3 local_tri[3] = {Vec3::Zero(), b - a, c - a};
     const PlacedCore local_core{shape, &pose.rotation, pose.translation - a, center - a, scale, counters};
     int side = 0;  // SideMonitor's verdict
     // (Initialized in place: a GjkResult holds its simplex, hundreds of bytes.)
@@ -570,10 +569,10 @@ struct ConvexNarrowphase {
     detail::GjkResult g = [&] {
       if constexpr (kChecking) {
         const bool monitored = predict_contact && scale < 1.0 && counters->full_meets;
-        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + std::sqrt(longest2), gjk,
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + longest, gjk,
                                    SideMonitor{n, 1e-9 * size, monitored, &side});
       } else {
-        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + std::sqrt(longest2), gjk);
+        return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + longest, gjk);
       }
     }();
     if (kChecking && g.stopped) {

@@ -6,8 +6,10 @@
 // makes the scaling exact (no rounding: the scaled computation gives the
 // unscaled one's bits times 2^-k) and costs a multiplication, not a division.
 // Shared by the degenerate-triangle test (mesh build and per-candidate
-// checks) and the sphere narrowphase, which would otherwise compute the same
-// scaled edges twice per candidate.
+// checks) and the narrowphases, which take the triangle's unit normal from
+// it: an unscaled |b - a x c - a| squares lengths to the fourth power, which
+// underflows for triangles below ~1e-77 (a normal off unit length by ~20%
+// at 1e-80, none at all below ~1e-81).
 
 #include "meshcontact/geometry.h"
 
@@ -32,6 +34,12 @@ struct ScaledEdges {
 
   /// The unit face normal (ab x ac) / |ab x ac|; only when !degenerate.
   Vec3 unitNormal() const { return cross / std::sqrt(cross2); }
+  /// The longest edge's length, unscaled. Recomputed rather than kept from
+  /// scaledEdges(): one more member changed the sphere narrowphase's
+  /// register allocation, and the sphere does not need it.
+  double longestEdge() const {
+    return std::sqrt(std::max({ab.squaredNorm(), ac.squaredNorm(), (ac - ab).squaredNorm()})) * scale;
+  }
 };
 
 /// The power of two 2^k <= m < 2^(k+1) and its inverse, for a positive finite
