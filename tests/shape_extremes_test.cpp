@@ -7,9 +7,10 @@
 //    The box rotated its normals out of its own frame and passed that on.
 //  - A triangle's normal taken as (b - a) x (c - a) / |(b - a) x (c - a)|
 //    squares lengths to the fourth power inside the norm: below ~1e-77 m it
-//    underflows. The box and convex narrowphases then gave normals 16-19% off
-//    unit length at 1e-80, and dropped every triangle as degenerate below
-//    ~1e-81 (no contact, no error); the capsule did so below ~1e-162.
+//    underflows. The box and the convex narrowphase (cylinder, hull) then
+//    gave normals 16-19% off unit length at 1e-80, and dropped every triangle
+//    as degenerate below ~1e-81 (no contact, no error); the capsule did so
+//    below ~1e-162 (beyond this test's scales).
 #include "test_support.h"
 
 #include <meshcontact/convex.h>

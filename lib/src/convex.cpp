@@ -455,7 +455,6 @@ struct ConvexNarrowphase {
       return PatchOutcome::kDegenerate;
     }
     const Vec3 n = scaled.unitNormal();
-    const double longest = scaled.longestEdge();
     if (counters->core_intersects || counters->support_not_finite) {
       // This pass is void (to be redone, or an error): skip the work.
       p.distance = 0.0;
@@ -556,6 +555,7 @@ struct ConvexNarrowphase {
     // query frame's coordinates (a mesh 1e5 from its origin would otherwise
     // cost GJK five digits).
     const Vec3 local_tri[3] = {Vec3::Zero(), b - a, c - a};
+    const double longest = scaled.longestEdge();
     const PlacedCore local_core{shape, &pose.rotation, pose.translation - a, center - a, scale, counters};
     int side = 0;  // SideMonitor's verdict
     // (Initialized in place: a GjkResult holds its simplex, hundreds of bytes.)
@@ -677,7 +677,8 @@ struct ConvexNarrowphase {
     if (q.feature.type == FeatureType::kFace || !(d > 1e-12 * size))
       return facePatch(tri, n, low_full - margin * n, false, p);
     p.feature = q.feature;
-    return pointPatch(tri, v / d, p);
+    // Not v / d: below ~1e-154 |v|^2 goes subnormal and d loses its digits.
+    return pointPatch(tri, normalizedOr(v, n), p);
   }
 
   // One point along u for the full shape: its extreme point along -u and the

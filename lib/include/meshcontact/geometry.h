@@ -25,8 +25,8 @@ using Mat3 = Eigen::Matrix3d;
 /// tested range ends where products of lengths go subnormal: sizes below
 /// ~1e-80 for the convex shapes (GJK: the cylinder gains contacts) and
 /// ~1e-150 for the sphere, capsule and box (squared distances: contacts
-/// that would have been voided can be kept). Triangle normals hold at any
-/// scale.
+/// that would have been voided can be kept). A triangle's own normal is
+/// exact at any scale.
 constexpr double kMaxCoordinate = 1e50;
 
 inline bool inRange(double x) { return std::abs(x) <= kMaxCoordinate; }  // false for NaN/Inf
