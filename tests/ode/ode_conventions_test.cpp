@@ -228,6 +228,40 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
   }
 }
 
+// A trimesh whose rotation is orthonormal only to the core's tolerance (every
+// entry of R^T R - I just under 1e-9, R = I + S, S symmetric): the core
+// accepts the shape's pose relative to it, and its unit normals, rotated into
+// the world by R, would come out up to ~1e-9 off unit length. dContactGeom
+// normals must be unit whatever rotation ODE holds.
+TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const scenes::SceneMesh scene = scenes::step(1.5, 0.5, 0.5, 11);
+  OdeMesh om(scene);
+  const Mat3 rotation = Mat3::Identity() + Mat3::Constant(0.4999e-9);
+  setRotation(om.geom, rotation);
+  ASSERT_GT((rotation * Vec3(1, 1, 1).normalized()).norm() - 1.0, 1e-9);  // the error the adapter must not pass on
+  for (dGeomID shape : {dCreateSphere(nullptr, 0.3), dCreateBox(nullptr, 0.5, 0.4, 0.3)}) {
+    scenes::Rng rng(99);
+    const std::uint64_t errors_before = ode::statistics().errors;
+    double worst = 0.0;
+    int contacts = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+      // Near the cliff edge (x = 0, z = 0.5): the floor, the edge, the wall.
+      dGeomSetPosition(shape, rng.uniform(-0.8, 0.8), rng.uniform(-1.0, 1.0), rng.uniform(0.0, 0.8));
+      dContactGeom out[64];
+      const int n = dCollide(om.geom, shape, 64, out, sizeof(dContactGeom));
+      ASSERT_GE(n, 0);
+      for (int i = 0; i < n; ++i) worst = std::max(worst, std::abs(vec(out[i].normal).norm() - 1.0));
+      contacts += n;
+    }
+    EXPECT_EQ(ode::statistics().errors, errors_before) << ode::lastError();
+    EXPECT_GT(contacts, 100) << "the placements must exercise contacts";
+    EXPECT_LE(worst, 1e-12);
+    dGeomDestroy(shape);
+  }
+}
+
 // Many contacts (no manifold reduction): the budget keeps the deepest first,
 // then each next one the farthest from those already kept; the stride is
 // honoured and nothing is written past the budget.

@@ -40,7 +40,11 @@ int writeContacts(const ThreadContext& ctx, bool trimesh_first, dGeomID trimesh,
     const Contact& c = ctx.contacts[i];
     dContactGeom* out = contactAt(contacts, written++, skip);
     setVec(out->pos, frame.apply(c.point));
-    const Vec3 normal = frame.rotation * c.normal;
+    // The core's normal is unit; the trimesh's rotation is only as
+    // orthonormal as ODE keeps it (and the core accepts 1e-9 of error in
+    // the shape's pose relative to it): renormalized unless it is the exact
+    // identity (the usual static ground), which keeps the core's bits.
+    const Vec3 normal = frame.isIdentity() ? c.normal : Vec3((frame.rotation * c.normal).normalized());
     setVec(out->normal, trimesh_first ? Vec3(-normal) : normal);
     out->depth = static_cast<dReal>(c.depth);
     // collideWithGroup: each contact names the piece it came from.
