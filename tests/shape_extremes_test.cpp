@@ -14,6 +14,7 @@
 #include "test_support.h"
 
 #include <meshcontact/convex.h>
+#include <meshcontact/filter.h>
 #include <meshcontact/shapes.h>
 
 #include <random>
@@ -124,6 +125,33 @@ TEST(ShapeExtremes, TinySceneGivesUnitNormalsAndKeepsItsContacts) {
       }
     }
   }
+}
+
+// filterPatches takes external normals within 1e-6 of unit (a caller's
+// FCL or ODE contact, say); the contacts it returns carry unit normals.
+TEST(ShapeExtremes, FilterPatchesReturnsUnitNormalsForAcceptedInput) {
+  CandidateTriangle candidate;
+  candidate.vertices[0] = Vec3(0, 0, 0);
+  candidate.vertices[1] = Vec3(1, 0, 0);
+  candidate.vertices[2] = Vec3(0, 1, 0);
+  candidate.keys[0] = 0, candidate.keys[1] = 1, candidate.keys[2] = 2;
+  TrianglePatch patch;
+  patch.feature = Feature::face();
+  patch.count = 1;
+  patch.points[0] = Vec3(0.2, 0.2, 0.0);
+  patch.depths[0] = 0.01;
+  QuerySettings settings;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  patch.normal = Vec3(0.6, 0.0, 0.8) * (1.0 + 9e-7);  // accepted: within 1e-6 of unit
+  ASSERT_TRUE(filterPatches(&candidate, &patch, 1, 1.0, settings, scratch, contacts).isOk());
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_LE(std::abs(contacts[0].normal.norm() - 1.0), kUnit);
+  EXPECT_LE((contacts[0].normal - Vec3(0.6, 0.0, 0.8)).norm(), kUnit);
+  patch.normal = Vec3(0.6, 0.0, 0.8) * (1.0 + 2e-6);  // rejected, by name
+  const Status s = filterPatches(&candidate, &patch, 1, 1.0, settings, scratch, contacts);
+  EXPECT_EQ(s.code(), ErrorCode::kInvalidSettings);
+  EXPECT_NE(s.message().find("not a unit vector"), std::string::npos) << s.message();
 }
 
 }  // namespace

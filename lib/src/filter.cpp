@@ -71,7 +71,7 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
     const TrianglePatch& in = patches[&c - candidates];
     p.feature = in.feature;
     p.distance = in.distance;
-    p.normal = in.normal;
+    p.normal = in.normal.normalized();  // accepted within 1e-6 of unit; Contact::normal is unit
     p.count = in.count;
     for (int k = 0; k < in.count; ++k) {
       p.points[k] = in.points[k];

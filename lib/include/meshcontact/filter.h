@@ -58,7 +58,8 @@ struct TrianglePatch {
 /// tolerances). settings.contact_distance is not used: the caller decides
 /// which patches exist. Replaces `contacts` (sorted by (mesh, triangle)
 /// before the reduction); the result does not depend on the order of the
-/// input. settings.trace, when set, gets one entry per patch.
+/// input. The contacts' normals are the patches' normals, renormalized.
+/// settings.trace, when set, gets one entry per patch.
 /// Errors: kInvalidSettings (a patch whose count is not 1..4, whose normal is
 /// not finite and unit within 1e-6, or whose distance, points or depths are
 /// not finite: names the patch; or bad manifold settings; or a length_scale
