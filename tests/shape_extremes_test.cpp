@@ -25,12 +25,6 @@ namespace {
 constexpr int kShapes = 4;
 constexpr const char* kShapeNames[kShapes] = {"capsule", "box", "cylinder", "hull"};
 
-/// A proper rotation Q times (I + S), S symmetric with every entry `e`:
-/// R^T R - I = 2S + S^2, whose entries are 2e + 3e^2 (just under 1e-9 for
-/// e = 0.4999e-9). For n = (1,1,1)/sqrt(3) in the shape's frame,
-/// |R n|^2 - 1 = n^T (2S + S^2) n = 3 (2e + 3e^2): |R n| - 1 is ~1.5e-9.
-Mat3 rotationAtTolerance(const Mat3& proper) { return proper * (Mat3::Identity() + Mat3::Constant(0.4999e-9)); }
-
 struct Sweep {
   std::size_t contacts[kShapes] = {};
   double worst_unit_error[kShapes] = {};  // max | |normal| - 1 |
@@ -66,7 +60,8 @@ Sweep sweep(double scale, bool rotation_at_tolerance, bool with_hull) {
     Eigen::Quaterniond q(gauss(rng), gauss(rng), gauss(rng), gauss(rng));
     q.normalize();
     Pose pose;
-    pose.rotation = rotation_at_tolerance ? rotationAtTolerance(q.toRotationMatrix()) : q.toRotationMatrix();
+    pose.rotation =
+        rotation_at_tolerance ? testing::rotationAtValidationTolerance(q.toRotationMatrix()) : q.toRotationMatrix();
     const double x = xy(rng), y = xy(rng);
     pose.translation = Vec3(x, y, height(x, y) + lift(rng)) * scale;
     for (int shape = 0; shape < kShapes; ++shape) {

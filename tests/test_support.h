@@ -23,6 +23,15 @@ inline int scaled(int placements) {
   return std::max(100, static_cast<int>(placements * scale));
 }
 
+/// A rotation at the edge of what the core's validation accepts (every entry
+/// of R^T R - I within 1e-9, validate.cpp): `proper` times (I + S), S
+/// symmetric with every entry e = 0.4999e-9, so R^T R - I = 2S + S^2 has
+/// entries 2e + 3e^2, just under 1e-9. It stretches n = (1,1,1)/sqrt(3) by
+/// |(I + S) n| - 1 = 3e: ~1.5e-9, the error a normal rotated by it carries.
+inline Mat3 rotationAtValidationTolerance(const Mat3& proper = Mat3::Identity()) {
+  return proper * (Mat3::Identity() + Mat3::Constant(0.4999e-9));
+}
+
 /// A frame the whole scene is moved into for the scale-robustness runs of
 /// the oracles: every length multiplied by `scale`, then every point moved
 /// by `offset` along (1, 1, 1). The core's tolerances are relative, so an

@@ -6,6 +6,8 @@
 // API, updates); groups; the triangle filter; errors; threads.
 #include "ode_sim.h"
 
+#include "../test_support.h"
+
 #include <meshcontact/convex.h>
 #include <meshcontact/meshcontact.h>
 #include <meshcontact/shapes.h>
@@ -228,8 +230,8 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
   }
 }
 
-// A trimesh whose rotation is orthonormal only to the core's tolerance (every
-// entry of R^T R - I just under 1e-9, R = I + S, S symmetric): the core
+// A trimesh whose rotation is orthonormal only to the core's tolerance
+// (testing::rotationAtValidationTolerance, about the identity): the core
 // accepts the shape's pose relative to it, and its unit normals, rotated into
 // the world by R, would come out up to ~1e-9 off unit length. dContactGeom
 // normals must be unit whatever rotation ODE holds.
@@ -238,7 +240,7 @@ TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
   ASSERT_TRUE(ode::installColliders().isOk());
   const scenes::SceneMesh scene = scenes::step(1.5, 0.5, 0.5, 11);
   OdeMesh om(scene);
-  const Mat3 rotation = Mat3::Identity() + Mat3::Constant(0.4999e-9);
+  const Mat3 rotation = testing::rotationAtValidationTolerance();
   setRotation(om.geom, rotation);
   ASSERT_GT((rotation * Vec3(1, 1, 1).normalized()).norm() - 1.0, 1e-9);  // the error the adapter must not pass on
   for (dGeomID shape : {dCreateSphere(nullptr, 0.3), dCreateBox(nullptr, 0.5, 0.4, 0.3)}) {
