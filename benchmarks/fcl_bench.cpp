@@ -9,12 +9,21 @@
 // Shapes: sphere (r 0.25), capsule (r 0.15, lz 0.5), box (0.6 x 0.4 x 0.3),
 // cylinder (r 0.25, lz 0.4), convex (a hexagonal prism, circumradius 0.3,
 // height 0.4, 12 vertices).
-// 4096 seeded poses per scene and shape over the whole terrain, random
-// orientations, the shape's centre from 0.5 h below to 1.5 h above the
-// analytic surface (h: half the shape's largest extent), so that most poses
-// collide and some are near misses; consecutive queries touch unrelated parts
-// of the hierarchy (cold-ish caches, as with many bodies). Every variant of a
-// (scene, shape) pair cycles through the same pose list.
+// Two pose lists per scene and shape, 4096 seeded poses each, the shape's
+// centre from 0.5 h below to 1.5 h above the analytic surface (h: half the
+// shape's largest extent), so that most poses collide and some are near
+// misses:
+//   Scattered (the default; cases named Scene/Shape/Request): uniform over
+//         the whole terrain, random orientations. Consecutive queries touch
+//         unrelated parts of the hierarchy: cold-ish caches, as with many
+//         bodies or a sampling planner's random states.
+//   Path (cases named .../Path): one body moving along a wandering path,
+//         2 cm and about 1 degree per query (2 m/s at 100 Hz, or a planner
+//         checking an edge at 2 cm resolution), its height over the surface
+//         swinging through the same range. Consecutive queries touch nearly
+//         the same nodes and triangles: warm caches, as when one robot link
+//         is checked along a trajectory.
+// Every variant of a (scene, shape, pose list) cycles through the same list.
 //
 // Variants (each iteration is one query: the reported time is ns per query):
 //   Fcl           fcl::collide, GJK solver GST_LIBCCD (FCL's default).
@@ -127,10 +136,42 @@ std::shared_ptr<fcl::BVHModel<BV>> buildModel(const scenes::SceneMesh& m) {
   return model;
 }
 
+// The Path pose list: a body wandering over the terrain (see the top of
+// this file). The heading turns by a small random angle per step and
+// reflects off a 1 m border; the orientation turns by ~1 degree per step
+// about an axis that itself drifts; the height over the surface follows a
+// slow sine through [-0.5 h, 1.5 h].
+std::vector<fcl::Transform3d> pathPoses(SceneId scene, double h, scenes::Rng& rng) {
+  constexpr double kStep = 0.02;           // m per query
+  constexpr double kTurn = M_PI / 180.0;   // rad per query
+  const double extent = kCells * kCell;
+  double x = rng.uniform(1.0, extent - 1.0), y = rng.uniform(1.0, extent - 1.0);
+  double heading = rng.uniform(0.0, 2.0 * M_PI);
+  Eigen::Quaterniond orientation(rng.rotation());
+  mc::Vec3 axis = rng.unitVector();
+  std::vector<fcl::Transform3d> poses;
+  for (int i = 0; i < kPoses; ++i) {
+    heading += rng.uniform(-0.05, 0.05);
+    double nx = x + kStep * std::cos(heading), ny = y + kStep * std::sin(heading);
+    if (nx < 1.0 || nx > extent - 1.0) heading = M_PI - heading, nx = x;
+    if (ny < 1.0 || ny > extent - 1.0) heading = -heading, ny = y;
+    x = nx, y = ny;
+    axis = (axis + 0.1 * rng.unitVector()).normalized();
+    orientation = (Eigen::AngleAxisd(kTurn, axis) * orientation).normalized();  // no drift over the steps
+    fcl::Transform3d tf = fcl::Transform3d::Identity();
+    tf.linear() = orientation.toRotationMatrix();
+    const double swing = 0.5 + std::sin(2.0 * M_PI * i / 512.0);  // [-0.5, 1.5]
+    tf.translation() = fcl::Vector3d(x, y, surfaceHeight(scene, x, y) + h * swing);
+    poses.push_back(tf);
+  }
+  return poses;
+}
+
 struct SceneFixture {
   std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> obbrss;
   mc::TriangleMesh core;  // the same mesh for the core's own queries
-  std::vector<fcl::Transform3d> poses[kShapeCount];
+  std::vector<fcl::Transform3d> poses[kShapeCount];  // Scattered
+  std::vector<fcl::Transform3d> path[kShapeCount];   // Path
 };
 
 struct Fixture {
@@ -173,12 +214,18 @@ Fixture& fixture() {
         tf.translation() = fcl::Vector3d(x, y, surfaceHeight(scene, x, y) + h * rng.uniform(-0.5, 1.5));
         sf.poses[k].push_back(tf);
       }
+      sf.path[k] = pathPoses(scene, h, rng);
     }
   }
   return *f;
 }
 
 enum class Mode { kContacts, kBoolean };
+enum class Poses { kScattered, kPath };
+
+const std::vector<fcl::Transform3d>& poseList(const SceneFixture& sf, ShapeId id, Poses poses) {
+  return poses == Poses::kPath ? sf.path[id] : sf.poses[id];
+}
 
 fcl::CollisionRequestd request(Mode mode) {
   return mode == Mode::kContacts ? fcl::CollisionRequestd(100, true) : fcl::CollisionRequestd(1, false);
@@ -207,17 +254,17 @@ void run(benchmark::State& state, const std::shared_ptr<Model>& model, const std
   state.counters["hits"] = benchmark::Counter(hits, benchmark::Counter::kAvgIterations);
 }
 
-void BM_Fcl(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+void BM_Fcl(benchmark::State& state, SceneId scene, ShapeId id, Mode mode, Poses poses) {
   const SceneFixture& sf = fixture().scenes[scene];
-  run(state, sf.obbrss, sf.poses[id], id, mode,
+  run(state, sf.obbrss, poseList(sf, id, poses), id, mode,
       [](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
          fcl::CollisionResultd& out) { fcl::collide(a, b, r, out); });
 }
 
-void BM_DropIn(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+void BM_DropIn(benchmark::State& state, SceneId scene, ShapeId id, Mode mode, Poses poses) {
   const SceneFixture& sf = fixture().scenes[scene];
   bool failed = false;
-  run(state, sf.obbrss, sf.poses[id], id, mode,
+  run(state, sf.obbrss, poseList(sf, id, poses), id, mode,
       [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
           fcl::CollisionResultd& out) {
         mc::fcl::collide(a, b, r, out);
@@ -226,14 +273,14 @@ void BM_DropIn(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
   if (failed) state.SkipWithError(mc::fcl::lastStatus().message().c_str());
 }
 
-void BM_DropInCached(benchmark::State& state, SceneId scene, ShapeId id, Mode mode) {
+void BM_DropInCached(benchmark::State& state, SceneId scene, ShapeId id, Mode mode, Poses poses) {
   Fixture& f = fixture();
   const SceneFixture& sf = f.scenes[scene];
   mc::fcl::Scratch scratch;
   mc::fcl::Options options;
   options.cache = &f.cache;
   mc::Status status;
-  run(state, sf.obbrss, sf.poses[id], id, mode,
+  run(state, sf.obbrss, poseList(sf, id, poses), id, mode,
       [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
           fcl::CollisionResultd& out) {
         const mc::Status s = mc::fcl::collide(a, b, r, out, options, scratch);
@@ -246,9 +293,10 @@ void BM_DropInCached(benchmark::State& state, SceneId scene, ShapeId id, Mode mo
 // conversion, no fallback): the floor under the drop-in. The convex shape is
 // the core's ConvexHull of the prism's vertices with margin 0 (the drop-in
 // reads FCL's Convex in place instead).
-void BM_Core(benchmark::State& state, SceneId scene, ShapeId id) {
+void BM_Core(benchmark::State& state, SceneId scene, ShapeId id, Poses poses) {
   Fixture& f = fixture();
   const SceneFixture& sf = f.scenes[scene];
+  const std::vector<fcl::Transform3d>& list = poseList(sf, id, poses);
   const mc::QuerySettings settings;
   mc::QueryScratch scratch;
   std::vector<mc::Contact> contacts;
@@ -256,7 +304,7 @@ void BM_Core(benchmark::State& state, SceneId scene, ShapeId id) {
   std::size_t i = 0;
   double count = 0, hits = 0;
   for (auto _ : state) {
-    const fcl::Transform3d& tf = sf.poses[id][i];
+    const fcl::Transform3d& tf = list[i];
     mc::Pose pose;
     pose.rotation = tf.linear();
     pose.translation = tf.translation();
@@ -273,7 +321,7 @@ void BM_Core(benchmark::State& state, SceneId scene, ShapeId id) {
     benchmark::DoNotOptimize(contacts.data());
     count += static_cast<double>(contacts.size());
     hits += !contacts.empty();
-    if (++i == sf.poses[id].size()) i = 0;
+    if (++i == list.size()) i = 0;
   }
   state.SetItemsProcessed(state.iterations());
   state.counters["contacts"] = benchmark::Counter(count, benchmark::Counter::kAvgIterations);
@@ -310,27 +358,29 @@ void BM_DropIn_AabbModel(benchmark::State& state) {
 }
 
 void registerAll() {
-  for (int s = 0; s < kSceneCount; ++s) {
-    const SceneId scene = static_cast<SceneId>(s);
-    for (int k = 0; k < kShapeCount; ++k) {
-      const ShapeId id = static_cast<ShapeId>(k);
-      for (const Mode mode : {Mode::kContacts, Mode::kBoolean}) {
-        const std::string suffix = std::string(kSceneNames[s]) + "/" + kShapeNames[k] +
-                                   (mode == Mode::kContacts ? "/Contacts" : "/Boolean");
-        benchmark::RegisterBenchmark(("Fcl/" + suffix).c_str(), BM_Fcl, scene, id, mode)->Repetitions(kRepetitions);
-        benchmark::RegisterBenchmark(("DropIn/" + suffix).c_str(), BM_DropIn, scene, id, mode)
+  for (const Poses poses : {Poses::kScattered, Poses::kPath}) {
+    const std::string tail = poses == Poses::kPath ? "/Path" : "";
+    for (int s = 0; s < kSceneCount; ++s) {
+      const SceneId scene = static_cast<SceneId>(s);
+      for (int k = 0; k < kShapeCount; ++k) {
+        const ShapeId id = static_cast<ShapeId>(k);
+        const std::string scene_shape = std::string(kSceneNames[s]) + "/" + kShapeNames[k];
+        for (const Mode mode : {Mode::kContacts, Mode::kBoolean}) {
+          const std::string suffix = scene_shape + (mode == Mode::kContacts ? "/Contacts" : "/Boolean") + tail;
+          benchmark::RegisterBenchmark(("Fcl/" + suffix).c_str(), BM_Fcl, scene, id, mode, poses)
+              ->Repetitions(kRepetitions);
+          benchmark::RegisterBenchmark(("DropIn/" + suffix).c_str(), BM_DropIn, scene, id, mode, poses)
+              ->Repetitions(kRepetitions);
+          benchmark::RegisterBenchmark(("DropInCached/" + suffix).c_str(), BM_DropInCached, scene, id, mode, poses)
+              ->Repetitions(kRepetitions);
+        }
+        benchmark::RegisterBenchmark(("Core/" + scene_shape + "/Contacts" + tail).c_str(), BM_Core, scene, id, poses)
             ->Repetitions(kRepetitions);
-        benchmark::RegisterBenchmark(("DropInCached/" + suffix).c_str(), BM_DropInCached, scene, id, mode)
-            ->Repetitions(kRepetitions);
+        if (poses == Poses::kScattered && (id == kSphere || id == kCapsule || id == kBox))
+          benchmark::RegisterBenchmark(("FclThenPostFilter/" + scene_shape + "/Contacts").c_str(),
+                                       BM_FclThenPostFilter, scene, id)
+              ->Repetitions(kRepetitions);
       }
-      benchmark::RegisterBenchmark(("Core/" + std::string(kSceneNames[s]) + "/" + kShapeNames[k] + "/Contacts").c_str(),
-                                   BM_Core, scene, id)
-          ->Repetitions(kRepetitions);
-      if (id == kSphere || id == kCapsule || id == kBox)
-        benchmark::RegisterBenchmark(
-            ("FclThenPostFilter/" + std::string(kSceneNames[s]) + "/" + kShapeNames[k] + "/Contacts").c_str(),
-            BM_FclThenPostFilter, scene, id)
-            ->Repetitions(kRepetitions);
     }
   }
   // FCL's AABB path copies the 100k-triangle model per call (~1 ms): fixed
