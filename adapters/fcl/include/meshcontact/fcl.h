@@ -206,7 +206,8 @@ struct Report {
   /// margin misses a contact the sharp FCL shape makes. One contact is then
   /// added, so that the in-collision answer agrees with fcl::collide: on the
   /// overlapping triangle the shape reaches deepest through (collision
-  /// checking: the first overlapping one the check visits, nearest first),
+  /// checking: the first overlapping one the check visits, nearest first,
+  /// possibly before a later triangle's own contact, see collide() below),
   /// with its face normal (the way out of a one-sided surface), the depth
   /// that clears its plane, and the shape's deepest point.
   std::size_t through_contacts = 0;
@@ -224,8 +225,13 @@ struct Report {
 /// reports a contact on that triangle: a sphere's, capsule's or box's own
 /// contact, unfiltered; for a cylinder, cone, ellipsoid or convex its plane
 /// contact (the face normal, the shape's deepest point along it, the depth
-/// that clears the plane), since the exact one needs GJK run to the end. The
-/// in-collision answer is the same as with contacts on.
+/// that clears the plane), since the exact one needs GJK run to the end.
+/// For those four shapes, a triangle whose plane the shape's origin lies
+/// behind is first asked the fallback's test (Report::through_contacts): its
+/// own one-sided query nearly never has a contact there, and finding that out
+/// costs its deep-penetration passes (a shape sunk into a floor would pay
+/// them on every triangle before the fallback). The in-collision answer is
+/// the same as with contacts on.
 /// request.gjk_solver_type only affects forwarded pairs and the fallback
 /// test (Report::through_contacts); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.
