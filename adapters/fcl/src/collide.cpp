@@ -311,29 +311,29 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     Status status;
     bool hit = false;
     bool through = false;  // the hit is the pass-through fallback's (see below)
-    Contact found;  // a support shape's hit (see below)
+    Contact found;  // a support shape's hit, or the fallback's (see below)
     bool visit(const CandidateTriangle& c) override {
       const Vec3 n = normalizedOr((c.vertices[1] - c.vertices[0]).cross(c.vertices[2] - c.vertices[0]), Vec3::Zero());
       if (n.isZero()) return false;
       const Vec3 lowest = detail::supportPoint(shape, pose, -n);
       const double depth = n.dot(c.vertices[0] - lowest);
       if (depth < -cd) return false;
+      // The shape's origin (a primitive's centre) behind the triangle's
+      // plane: the triangle's own one-sided query (reference §4a) nearly
+      // never has a contact (2.4% of such probes on fcl_bench's convex
+      // path), and with the shape sunk into a floor every candidate was
+      // queried (a support shape's probe through all its deep passes) and
+      // missed before the pass-through fallback asked FCL's own test. That
+      // test, for this triangle, is asked first here. It answers only where
+      // the fallback's own test holds, a pose the old order also found in
+      // collision, so the in-collision answer is unchanged; it is reached
+      // at the first overlapping triangle, as fcl::collide reaches it.
+      if (n.dot(pose.translation - c.vertices[0]) < 0.0 &&
+          detail::throughContact(shape, pose, &c, 1, &request, found, true, nullptr)) {
+        hit = through = true;
+        return true;
+      }
       if (probe) {
-        // The shape's origin (a primitive's centre) behind the triangle's
-        // plane: the triangle's own one-sided query (reference §4a) nearly
-        // never has a contact (2.4% of such probes on fcl_bench's convex
-        // path), and the probe finds that out only after its deep passes;
-        // with the shape sunk into a floor every candidate paid them before
-        // the fallback asked FCL's own test. That test (the fallback's,
-        // for this triangle) is asked first here: it only adds hits the
-        // fallback would have found, so the in-collision answer is
-        // unchanged, and it is reached at the first overlapping triangle,
-        // as fcl::collide reaches it.
-        if (n.dot(pose.translation - c.vertices[0]) < 0.0 &&
-            detail::throughContact(shape, pose, &c, 1, &request, found, true, nullptr)) {
-          hit = through = true;
-          return true;
-        }
         // Whether the triangle's own query has a contact, without computing
         // it (GJK to convergence is most of its cost): FCL reports no
         // geometry for enable_contact false, and the contact added is the
@@ -419,9 +419,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   }
   if (checking) {
     if (!checker.status) return checker.status;
-    // A support shape's hit: its plane contact (the other shapes left their
-    // one-candidate query's contacts in sc.contacts).
-    if (support) {
+    // A support shape's hit, or the fallback's reached early: its plane
+    // contact (otherwise the other shapes left their one-candidate query's
+    // contacts in sc.contacts).
+    if (support || checker.through) {
       sc.contacts.clear();
       if (checker.hit) sc.contacts.push_back(checker.found);
     }

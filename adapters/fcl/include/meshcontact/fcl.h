@@ -226,12 +226,12 @@ struct Report {
 /// contact, unfiltered; for a cylinder, cone, ellipsoid or convex its plane
 /// contact (the face normal, the shape's deepest point along it, the depth
 /// that clears the plane), since the exact one needs GJK run to the end.
-/// For those four shapes, a triangle whose plane the shape's origin lies
-/// behind is first asked the fallback's test (Report::through_contacts): its
-/// own one-sided query nearly never has a contact there, and finding that out
-/// costs its deep-penetration passes (a shape sunk into a floor would pay
-/// them on every triangle before the fallback). The in-collision answer is
-/// the same as with contacts on.
+/// A triangle whose plane the shape's origin lies behind is first asked the
+/// fallback's test (Report::through_contacts): its own one-sided query nearly
+/// never has a contact there (a shape sunk into a floor would otherwise have
+/// every candidate queried, and a support shape's deep-penetration passes
+/// run, before the fallback). The in-collision answer is the same as with
+/// contacts on.
 /// request.gjk_solver_type only affects forwarded pairs and the fallback
 /// test (Report::through_contacts); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.
