@@ -198,8 +198,10 @@ struct Report {
   /// Contacts meshcontact produced, before the num_max_contacts cut.
   std::size_t contacts = 0;
   /// 1 when the fallback gave the contact: meshcontact's pipeline gave
-  /// none, but FCL's own two-sided test (the request's solver) finds the
-  /// shape overlapping a candidate triangle. This happens when the shape has
+  /// none (in collision checking: none before the check reached a triangle
+  /// whose plane the shape's origin is behind, see collide() below), but
+  /// FCL's own two-sided test (the request's solver) finds the shape
+  /// overlapping a candidate triangle. This happens when the shape has
   /// passed through a one-sided surface (meshcontact's contacts are
   /// one-sided, reference §4a: a sphere whose centre is behind every
   /// triangle it touches gets none) or when a core shape with a rounding
@@ -227,11 +229,12 @@ struct Report {
 /// contact (the face normal, the shape's deepest point along it, the depth
 /// that clears the plane), since the exact one needs GJK run to the end.
 /// A triangle whose plane the shape's origin lies behind is first asked the
-/// fallback's test (Report::through_contacts): its own one-sided query nearly
-/// never has a contact there (a shape sunk into a floor would otherwise have
-/// every candidate queried, and a support shape's deep-penetration passes
-/// run, before the fallback). The in-collision answer is the same as with
-/// contacts on.
+/// fallback's test (Report::through_contacts), and when it overlaps, the
+/// fallback's contact on it is the one reported: the triangle's own
+/// one-sided query nearly never has a contact there (a shape sunk into a
+/// floor would otherwise have every candidate queried, and a support shape's
+/// deep-penetration passes run, before the fallback). The in-collision
+/// answer is the same as with contacts on.
 /// request.gjk_solver_type only affects forwarded pairs and the fallback
 /// test (Report::through_contacts); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.
