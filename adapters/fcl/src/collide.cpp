@@ -120,13 +120,31 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
   return out;
 }
 
+bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle& c, const Vec3& n,
+                   double depth, const ::fcl::CollisionRequestd* confirm) {
+  // FCL's own tolerance decides touching pairs; this band only skips
+  // triangles whose plane the shape clearly does not reach.
+  const double band = 1e-6 * shape.size;
+  const Vec3& a = c.vertices[0];
+  if (depth < -band) return false;                                  // wholly in front of the plane: the pipeline had it
+  if (n.dot(supportPoint(shape, pose, n) - a) < -band) return false;  // wholly behind: no overlap
+  if (!confirm) return true;
+  // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
+  // before FCL's own test is asked: near misses straddle the planes of
+  // several candidates, and FCL's GJK costs microseconds per triangle.
+  const Vec3 q = closestPointOnTriangle(pose.translation, a, c.vertices[1], c.vertices[2]).point;
+  const double reach = shape.bound + band;
+  if ((q - pose.translation).squaredNorm() > reach * reach) return false;
+  // For a sphere that test is FCL's whole test (the ball is the shape),
+  // exact here, so FCL is not asked; other shapes need FCL's GJK.
+  return shape.kind == ShapeKind::kSphere || fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm);
+}
+
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                     std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out, bool first_overlap,
                     const std::uint32_t* order) {
   bool found = false;
-  // FCL's own tolerance decides touching pairs; this band only skips
-  // triangles whose plane the shape clearly does not reach.
-  const double band = 1e-6 * shape.size;
+  const double band = 1e-6 * shape.size;  // passesThrough's
   for (std::size_t k = 0; k < count && !(first_overlap && found); ++k) {
     const CandidateTriangle& c = candidates[order ? order[k] : k];
     const Vec3& a = c.vertices[0];
@@ -140,22 +158,8 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     if (confirm && shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
     const Vec3 deepest = supportPoint(shape, pose, -n);
     const double depth = n.dot(a - deepest);  // how far the shape must move along n to clear the plane
-    if (depth < -band) continue;              // wholly in front of the plane: the pipeline had it
-    if (n.dot(supportPoint(shape, pose, n) - a) < -band) continue;  // wholly behind: no overlap
     if (found && !(depth > out.depth || (depth == out.depth && c.triangle < out.triangle))) continue;
-    if (confirm) {
-      // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
-      // before FCL's own test is asked: near misses straddle the planes of
-      // several candidates, and FCL's GJK costs microseconds per triangle.
-      const Vec3 q = closestPointOnTriangle(pose.translation, a, c.vertices[1], c.vertices[2]).point;
-      const double reach = shape.bound + band;
-      if ((q - pose.translation).squaredNorm() > reach * reach) continue;
-      // For a sphere that test is FCL's whole test (the ball is the shape),
-      // exact here, so FCL is not asked; other shapes need FCL's GJK.
-      if (shape.kind != ShapeKind::kSphere &&
-          !fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm))
-        continue;
-    }
+    if (!passesThrough(shape, pose, c, n, depth, confirm)) continue;
     found = true;
     out = planeContact(c, n, deepest, depth);
   }
@@ -328,8 +332,8 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
       // the fallback's own test holds, a pose the old order also found in
       // collision, so the in-collision answer is unchanged; it is reached
       // at the first overlapping triangle, as fcl::collide reaches it.
-      if (n.dot(pose.translation - c.vertices[0]) < 0.0 &&
-          detail::throughContact(shape, pose, &c, 1, &request, found, true, nullptr)) {
+      if (n.dot(pose.translation - c.vertices[0]) < 0.0 && detail::passesThrough(shape, pose, c, n, depth, &request)) {
+        found = detail::planeContact(c, n, lowest, depth);
         hit = through = true;
         return true;
       }
@@ -432,11 +436,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     if (!s) return s;
   }
   rep.candidates = sc.candidates.size();
-  rep.contacts = sc.contacts.size();
-  if (checking && checker.through) {  // the fallback's contact, reached early (Checker::visit)
-    rep.contacts = 0;
-    rep.through_contacts = 1;
-  }
+  // A hit of the fallback's test, reached early (Checker::visit): the
+  // fallback's contact, not the pipeline's.
+  rep.contacts = checker.through ? 0 : sc.contacts.size();
+  rep.through_contacts = checker.through ? 1 : 0;
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     // Collision checking takes the first overlapping candidate in the order
     // the check visited them (nearest the shape first): the walk's order, or

@@ -238,6 +238,13 @@ Pose relativePose(const Pose& mesh, const Pose& shape);
 /// the plane (clamped at 0), the face feature.
 Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deepest, double depth);
 
+/// The fallback's test on one candidate (unit normal n, `depth` = n . (a -
+/// the shape's deepest point along -n)): the shape crosses the triangle's
+/// plane and, with `confirm`, FCL's own two-sided test (its solver) finds
+/// them overlapping.
+bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle& c, const Vec3& n,
+                   double depth, const ::fcl::CollisionRequestd* confirm);
+
 /// The fallback of Report::through_contacts, for a query whose pipeline
 /// gave no contact: among the candidates whose plane the shape crosses,
 /// those that overlap it (by FCL's own two-sided test with `confirm`'s
