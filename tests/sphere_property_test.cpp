@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <tuple>
 #include <thread>
 
@@ -292,6 +293,60 @@ TEST(Midphase, LargeQueriesGrowTheQueueAndMissNothing) {
     }
   }
   EXPECT_GT(reused.size(), 1000u) << "the queue never grew: the test did not exercise it";
+}
+
+// visitNearSphere hands the visitor exactly the triangles querySphere
+// reports, each once, whatever the scratch stack holds; a visitor that
+// answers true ends the walk at that triangle (nothing visited after it); and
+// nearest first: the first triangle visited lies within a cell of the
+// centre (in the floor's plane) on nearly every query, where the sphere
+// reaches up to six cells away (a walk in the hierarchy's own order, or
+// farthest first, would fail that).
+TEST(Midphase, VisitNearSphereVisitsTheSphereQuerysTrianglesAndStopsAtAHit) {
+  Rng rng(12);
+  SceneMesh m = scenes::flatFloor(60, 60, 0.25, 4, 0.3);
+  for (std::size_t v = 0; v < m.vertexCount(); ++v) m.vertices[3 * v + 2] = rng.uniform(-0.05, 0.05);
+  TriangleMesh mesh = testing::buildMesh(m);
+  struct Recorder final : TriangleVisitor {
+    std::vector<std::uint32_t> seen;
+    std::size_t stop_after = 0;  // 0: never stop
+    bool visit(std::uint32_t t) override {
+      seen.push_back(t);
+      return stop_after != 0 && seen.size() == stop_after;
+    }
+  };
+  std::vector<std::int32_t> queue, stack(3, 7);  // a stack left holding junk
+  std::size_t stopped = 0, total = 0, first_near = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 centre(rng.uniform(0.5, 14.5), rng.uniform(0.5, 14.5), rng.uniform(-0.3, 0.3));
+    const double r = rng.uniform(0.05, 1.5);
+    std::vector<std::uint32_t> hits;
+    mesh.querySphere(centre, r, hits, queue);
+    Recorder all;
+    EXPECT_FALSE(mesh.visitNearSphere(centre, r, all, stack));
+    std::vector<std::uint32_t> sorted = all.seen;
+    std::sort(sorted.begin(), sorted.end());
+    std::sort(hits.begin(), hits.end());
+    ASSERT_EQ(sorted, hits) << "query " << i << " centre " << str(centre) << " r " << r;
+    total += hits.size();
+    if (all.seen.empty()) continue;
+    // The first visited, in the floor's plane (its heights are within 0.05).
+    const std::uint32_t* tri = &m.indices[3 * all.seen.front()];
+    const ClosestPoint q = closestPointOnTriangle(centre, m.vertex(tri[0]), m.vertex(tri[1]), m.vertex(tri[2]));
+    if ((q.point - centre).head<2>().norm() <= 0.25 * std::sqrt(2.0)) ++first_near;
+    // Stopping at the k-th triangle: the same first k, then nothing.
+    Recorder some;
+    some.stop_after = 1 + static_cast<std::size_t>(rng.uniform(0.0, 0.999) * static_cast<double>(all.seen.size()));
+    EXPECT_TRUE(mesh.visitNearSphere(centre, r, some, stack));
+    ASSERT_EQ(some.seen.size(), some.stop_after);
+    EXPECT_TRUE(std::equal(some.seen.begin(), some.seen.end(), all.seen.begin())) << "query " << i;
+    ++stopped;
+  }
+  EXPECT_GT(stopped, 150u);  // most spheres reach the floor
+  EXPECT_GT(total, 2000u);
+  std::printf("visitNearSphere: first triangle within a cell of the centre on %zu of %zu queries\n", first_near,
+              stopped);
+  EXPECT_GE(first_near, stopped * 9 / 10);
 }
 
 // Edge and vertex contacts are ranked by squared distance and finished only

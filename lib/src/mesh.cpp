@@ -468,6 +468,53 @@ void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<st
        vertices_, out, queue);
 }
 
+bool TriangleMesh::visitNearSphere(const Vec3& center, double radius, TriangleVisitor& visitor,
+                                   std::vector<std::int32_t>& stack) const {
+  if (nodes_.empty()) return false;
+  const LeafNearSphere near{center, radius * radius};
+  // One stack for inner nodes (index >= 0) and triangles (~index < 0, as
+  // BvhNode::child encodes them): a node's near lanes are pushed farthest
+  // first, so that the nearest is the next one popped, leaf or not.
+  stack.clear();
+  stack.push_back(0);
+  while (!stack.empty()) {
+    const std::int32_t id = stack.back();
+    stack.pop_back();
+    if (id < 0) {
+      if (visitor.visit(static_cast<std::uint32_t>(~id))) return true;
+      continue;
+    }
+    const BvhNode& n = nodes_[static_cast<std::size_t>(id)];
+    const unsigned bits = near(n) & n.lanes;
+    if (bits == 0) continue;
+    // Up to four lanes, sorted by the squared distance from their box
+    // centre to `center` (insertion sort; the lane index breaks ties).
+    int lane[4];
+    double key[4];
+    int count = 0;
+    for (unsigned b = bits; b != 0; b &= b - 1) {
+      const int l = __builtin_ctz(b);
+      double d2 = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        const double e = 0.5 * (static_cast<double>(n.lo[k][l]) + static_cast<double>(n.hi[k][l])) - center[k];
+        d2 += e * e;
+      }
+      int i = count++;
+      for (; i > 0 && key[i - 1] > d2; --i) lane[i] = lane[i - 1], key[i] = key[i - 1];
+      lane[i] = l;
+      key[i] = d2;
+    }
+    for (int i = count - 1; i >= 0; --i) {
+      const std::int32_t child = n.child[lane[i]];
+      stack.push_back(child);
+#if defined(__SSE2__)
+      if (child >= 0) _mm_prefetch(reinterpret_cast<const char*>(&nodes_[static_cast<std::size_t>(child)]), _MM_HINT_T0);
+#endif
+    }
+  }
+  return false;
+}
+
 const std::uint32_t* TriangleMesh::prefetchIndices() const {
   return triangle_count_ >= kPrefetchTriangleCount ? indices_ : nullptr;
 }

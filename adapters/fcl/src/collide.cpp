@@ -141,12 +141,11 @@ bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTria
 }
 
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
-                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out, bool first_overlap,
-                    const std::uint32_t* order) {
+                    std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out, bool first_overlap) {
   bool found = false;
   const double band = 1e-6 * shape.size;  // passesThrough's
   for (std::size_t k = 0; k < count && !(first_overlap && found); ++k) {
-    const CandidateTriangle& c = candidates[order ? order[k] : k];
+    const CandidateTriangle& c = candidates[k];
     const Vec3& a = c.vertices[0];
     const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
     if (n.isZero()) continue;
@@ -388,30 +387,43 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   if (compact) {
     // The compact copy of the hierarchy: the core's own midphase (which also
     // sets the keys), on the query volume's bounds.
-    const MeshInstance instance{compact, Pose::identity()};
-    // A sphere, or collision checking (the ball tightened above): only the
-    // triangles near the ball, as the walk of FCL's tree below keeps.
-    if (volume.ball_only || checking)
-      s = gatherCandidatesNearSphere(&instance, 1, Sphere{volume.center, volume.radius}, options.settings.key_mode,
-                                     sc.query, sc.candidates);
-    else
-      s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
-    if (!s) return s;
     if (checking) {
-      // Nearest the query's centre first (as the walk below): contact is
-      // likeliest there, and the first triangle in contact ends the check.
-      sc.order.resize(sc.candidates.size());
-      std::iota(sc.order.begin(), sc.order.end(), 0u);
-      const auto key = [&](std::uint32_t i) {
-        const CandidateTriangle& c = sc.candidates[i];
-        return (c.vertices[0] + c.vertices[1] + c.vertices[2] - 3.0 * volume.center).squaredNorm();
+      // The triangles near the ball (tightened above) one at a time, nearest
+      // the query's centre first, as the walk of FCL's tree below: the first
+      // in contact ends the check, most of the hierarchy unvisited.
+      // Gathering them all first cost the whole walk, and along a path made
+      // checking with a cache slower than without one.
+      struct CompactVisitor final : TriangleVisitor {
+        CompactVisitor(const TriangleMesh& m, Checker& c, std::vector<CandidateTriangle>& o)
+            : mesh(m), checker(c), out(o) {}
+        const TriangleMesh& mesh;
+        Checker& checker;
+        std::vector<CandidateTriangle>& out;
+        bool visit(std::uint32_t t) override {
+          const std::uint32_t* tri = mesh.triangle(t);
+          CandidateTriangle& c = out.emplace_back();
+          c.mesh = 0;
+          c.triangle = t;
+          for (int k = 0; k < 3; ++k) {
+            c.vertices[k] = mesh.vertex(tri[k]);
+            c.keys[k] = tri[k];  // one candidate per query (Checker::visit): keys compare nothing
+          }
+          return checker.visit(c);
+        }
       };
-      std::sort(sc.order.begin(), sc.order.end(), [&](std::uint32_t a, std::uint32_t b) {
-        const double ka = key(a), kb = key(b);
-        return ka != kb ? ka < kb : a < b;
-      });
-      for (const std::uint32_t i : sc.order)
-        if (checker.visit(sc.candidates[i])) break;
+      CompactVisitor visitor(*compact, checker, sc.candidates);
+      compact->visitNearSphere(volume.center, volume.radius, visitor, sc.stack);
+    } else {
+      // The core's own midphase (which also sets the keys), on the query
+      // volume's bounds; for a sphere only the triangles near the ball, as
+      // the walk of FCL's tree below keeps.
+      const MeshInstance instance{compact, Pose::identity()};
+      if (volume.ball_only)
+        s = gatherCandidatesNearSphere(&instance, 1, Sphere{volume.center, volume.radius}, options.settings.key_mode,
+                                       sc.query, sc.candidates);
+      else
+        s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
+      if (!s) return s;
     }
   } else {
     s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
@@ -442,11 +454,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   rep.through_contacts = checker.through ? 1 : 0;
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     // Collision checking takes the first overlapping candidate in the order
-    // the check visited them (nearest the shape first): the walk's order, or
-    // with a cache the sorted one.
+    // the check visited them (nearest the shape first): the walk's order.
     Contact through;
     if (detail::throughContact(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), &request, through,
-                               checking, checking && compact ? sc.order.data() : nullptr)) {
+                               checking)) {
       sc.contacts.push_back(through);
       rep.through_contacts = 1;
     }

@@ -252,13 +252,13 @@ bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTria
 /// reported); writes the contact of the one the shape reaches deepest through
 /// to `out` (query frame: the face normal, the depth that clears the plane,
 /// the shape's deepest point) and returns true, or returns false.
-/// Collision checking (`first_overlap`): the candidates are visited in
-/// `order` (indices into `candidates`, `count` of them; null: as given) and
-/// the first that overlaps is the one reported: a boolean request needs one,
-/// and FCL's test on the others costs microseconds each.
+/// Collision checking (`first_overlap`): the first candidate, in the order
+/// given (the check's visiting order), that overlaps is the one reported: a
+/// boolean request needs one, and FCL's test on the others costs
+/// microseconds each.
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                     std::size_t count, const ::fcl::CollisionRequestd* confirm, Contact& out,
-                    bool first_overlap = false, const std::uint32_t* order = nullptr);
+                    bool first_overlap = false);
 
 }  // namespace meshcontact::fcl::detail
 

@@ -60,6 +60,14 @@ struct alignas(128) BvhNode {
 static_assert(sizeof(BvhNode) == 128, "a node is two cache lines");
 using BvhNodes = std::vector<BvhNode>;
 
+/// Receives the triangles of TriangleMesh::visitNearSphere one at a time;
+/// returning true ends the walk.
+class TriangleVisitor {
+ public:
+  virtual ~TriangleVisitor() = default;
+  virtual bool visit(std::uint32_t triangle) = 0;
+};
+
 class TriangleMesh {
  public:
   TriangleMesh() = default;
@@ -128,6 +136,16 @@ class TriangleMesh {
   /// sphere). Same order and guarantees as queryBox.
   void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                    std::vector<std::int32_t>& queue) const;
+  /// The triangles querySphere reports, handed to `visitor` one at a time
+  /// until it returns true: for a search that ends at its first hit
+  /// (collision checking), where gathering every triangle first would pay
+  /// for the whole walk. Depth first, at each node the lane whose box centre
+  /// is nearest `center` first (where a shape centred there is likeliest to
+  /// touch), ties by lane: an order fixed by the mesh and the query. True
+  /// when the visitor ended the walk. `stack` is scratch, as queryBox's
+  /// `queue`.
+  bool visitNearSphere(const Vec3& center, double radius, TriangleVisitor& visitor,
+                       std::vector<std::int32_t>& stack) const;
 
  private:
   void reset();

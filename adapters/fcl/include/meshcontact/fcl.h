@@ -144,8 +144,7 @@ class Scratch {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Optional, for the fastest contact queries on large models (collision
-/// checking: see collide() below): a compact copy of each
+/// Optional, for the fastest queries on large models: a compact copy of each
 /// added model's hierarchy (the core's TriangleMesh: 4-wide float nodes,
 /// 43-62 bytes per triangle, also built by FCL; the vertices are read in
 /// place from the model, the triangles copied as 32-bit indices), owned by
@@ -248,9 +247,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
 /// thread, grown to the largest query and kept until the thread exits: no
 /// allocation per query once warm). On an error adds nothing; lastStatus()
 /// says why. It walks the model's own hierarchy; on large models the Status
-/// variant with Options::cache is faster for contacts, not always for
-/// collision checking, which with a cache gathers every candidate before
-/// testing one (benchmarks/fcl_bench.cpp: along a path, slower).
+/// variant with Options::cache is faster for contacts, and for collision
+/// checking at scattered poses; along a path, where the model's nodes stay
+/// in the CPU's caches, collision checking is about as fast either way
+/// (benchmarks/fcl_bench.cpp).
 std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                     const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result);
 
