@@ -150,6 +150,83 @@ TEST(Broadphase, TilesAreOneSurface) {
   EXPECT_GT(per_pair_ghosts, rounds / 10);  // and per-pair queries do show the ghosts
 }
 
+// Collision checking through the collector (FCL's default request: no
+// contact geometry, one contact): one contact for each shape that touches
+// the floor, none for the others. Every shape kind, placed clearly across the
+// floor's plane (at least 1 mm on both sides, some with the centre below
+// it), clearly above it or clearly below it (a floor of zero thickness: no
+// overlap), so the right answer is known without FCL's tolerances. The
+// contacts request answers the same, with and without a ModelCache.
+TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
+  scenes::Rng rng(63);
+  const TiledWorld world(randomPose(rng, 2.0));
+  fcl::ModelCache cache;
+  for (const auto& m : world.models) ASSERT_TRUE(cache.add(m.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  const std::vector<ShapeCase> kinds = allShapes();
+  int touching = 0, apart = 0, sunk = 0, checked = 0;
+  for (int round = 0; round < testing::scaled(600) / 14; ++round) {
+    std::vector<std::unique_ptr<::fcl::CollisionObjectd>> shapes;
+    std::vector<bool> expected;
+    for (int k = 0; k < 14; ++k) {
+      const ShapeCase& shape = kinds[k % kinds.size()];
+      Pose local;
+      local.rotation = rng.rotation();
+      const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
+      const double high = shape.extentAlong(local.rotation.transpose() * Vec3::UnitZ());
+      // Centre height z: lowest point z - low, highest z + high.
+      const int where = static_cast<int>(rng.uniform(0.0, 3.0));
+      double z;
+      if (where == 0) z = rng.uniform(-high + 1e-3, low - 1e-3);  // across the plane
+      else if (where == 1) z = low + rng.uniform(1e-3, 0.1);      // above
+      else z = -high - rng.uniform(1e-3, 0.1);                    // below
+      local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
+      expected.push_back(where == 0);
+      touching += where == 0;
+      apart += where == 1;
+      sunk += where == 0 && z < 0.0;
+      shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * local)));
+    }
+    ::fcl::DynamicAABBTreeCollisionManagerd manager;
+    for (const auto& t : world.tiles) manager.registerObject(t.get());
+    for (const auto& sh : shapes) manager.registerObject(sh.get());
+    manager.setup();
+    for (const bool contacts_on : {false, true}) {
+      const fcl::Options plain;
+      for (const fcl::Options* options : {&plain, static_cast<const fcl::Options*>(&cached)}) {
+        const ::fcl::CollisionRequestd request = contacts_on ? ::fcl::CollisionRequestd(1000, true)
+                                                             : ::fcl::CollisionRequestd();
+        fcl::BroadphaseCollector collector(request, *options);
+        manager.collide(&collector, fcl::BroadphaseCollector::callback);
+        const Status st = collector.finish();
+        ASSERT_TRUE(st.isOk()) << st.message();
+        std::map<const ::fcl::CollisionObjectd*, int> count;
+        for (const fcl::ObjectContact& c : collector.contacts()) {
+          if (world.tileOf(c.o1->collisionGeometry().get()) < 0) continue;  // shape-vs-shape, forwarded
+          EXPECT_EQ(c.contact.o1, c.o1->collisionGeometry().get());
+          EXPECT_EQ(c.contact.o2, c.o2->collisionGeometry().get());
+          ++count[c.o2];
+        }
+        for (std::size_t k = 0; k < shapes.size(); ++k) {
+          const int n = count.count(shapes[k].get()) ? count[shapes[k].get()] : 0;
+          EXPECT_EQ(n > 0, expected[k]) << kinds[k % kinds.size()].name << ", round " << round << ", shape " << k
+                                        << (contacts_on ? ", contacts" : ", checking")
+                                        << (options == &cached ? ", cached" : "");
+          if (!contacts_on) {
+            EXPECT_LE(n, 1);
+          }
+          ++checked;
+        }
+      }
+    }
+  }
+  std::printf("%d checks: %d shapes across the floor (%d with the centre below it), %d above it, the rest below\n",
+              checked, touching, sunk, apart);
+  EXPECT_GT(sunk, touching / 10);
+  EXPECT_GT(apart, checked / 4 / 5);
+}
+
 TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {
   const TiledWorld world(Pose::identity());
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
@@ -197,6 +274,21 @@ TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {
   const Status s = collector.finish();
   EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << s.message();
   EXPECT_FALSE(collector.contacts().empty()) << "the other shapes are still processed";
+
+  // Collision checking stops at the shape's first mesh in collision, but a
+  // bad mesh after it is still reported, and that shape gets no contact.
+  fcl::BroadphaseCollector checking;  // FCL's default request: no contacts, one wanted
+  ::fcl::CollisionObjectd nan_tile(world.models[3], ::fcl::Transform3d::Identity());
+  nan_tile.setTranslation(Vec3(NAN, 0.0, 0.0));
+  fcl::BroadphaseCollector::callback(world.tiles[10].get(), &good, &checking);
+  ASSERT_TRUE(checking.finish().isOk());
+  ASSERT_EQ(checking.contacts().size(), 1u);
+  EXPECT_EQ(checking.contacts()[0].o1, world.tiles[10].get());
+  EXPECT_EQ(checking.contacts()[0].o2, &good);
+  fcl::BroadphaseCollector::callback(&nan_tile, &good, &checking);
+  const Status bad_pose = checking.finish();
+  EXPECT_EQ(bad_pose.code(), ErrorCode::kInvalidPose) << bad_pose.message();
+  EXPECT_TRUE(checking.contacts().empty());
 }
 
 }  // namespace

@@ -91,6 +91,34 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     group_meshes.push_back(m);
     group_geometries.push_back(m->collisionGeometry().get());
   }
+  // Collision checking (a boolean request wanting one contact, as collide()
+  // defines it): whether the shape touches any of its meshes, the OR of the
+  // pairs' answers, which seams do not change. Each pair gets collide()'s
+  // own check, which stops at its first triangle in contact, and the first
+  // pair in collision gives the group's contact; the grouped query would
+  // build every contact of every mesh only to keep one. Every pair is
+  // validated first: a bad one is reported (and the group gets no contact),
+  // not skipped because an earlier mesh was hit.
+  if (!request.enable_contact && request.num_max_contacts == 1 && options.settings.trace == nullptr) {
+    for (const ::fcl::CollisionObjectd* m : group_meshes) {
+      detail::MeshDesc mesh;
+      detail::describeMesh(m->collisionGeometry().get(), mesh);
+      Pose mesh_pose, shape_in_model;
+      s = detail::checkPair(mesh, *m, *shape_object, "a mesh of the group", "shape", mesh_pose, shape_in_model);
+      if (!s) return s;
+    }
+    for (const ::fcl::CollisionObjectd* m : group_meshes) {
+      forwarded.clear();
+      s = collide(m, shape_object, request, forwarded, options, scratch);
+      if (!s) return s;
+      if (forwarded.numContacts() > 0) {
+        contacts.push_back({m, shape_object, forwarded.getContact(0)});
+        break;
+      }
+    }
+    return Status::ok();
+  }
+
   const ::fcl::Transform3d& frame_tf = group_meshes[0]->getTransform();
   Pose frame;
   s = detail::poseFromTransform(frame_tf, "mesh 0 of the group", frame);
