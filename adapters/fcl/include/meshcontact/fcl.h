@@ -308,8 +308,12 @@ struct ObjectContact {
 /// authored in one frame with equal transforms; the core's KeyMode).
 /// Pairs that are not mesh-vs-shape are passed to fcl::collide in the
 /// manager's order. request.num_max_contacts applies per shape (all its
-/// meshes together) and per forwarded pair. The callback never stops the
-/// manager early.
+/// meshes together) and per forwarded pair. Collision checking (FCL's
+/// default request: enable_contact false, num_max_contacts 1) gives each
+/// shape that touches any of its meshes one contact: its meshes are checked
+/// in turn as collide() checks one (the first triangle in contact ends a
+/// check), and the first in collision is the one reported. The callback
+/// never stops the manager early.
 class BroadphaseCollector {
  public:
   explicit BroadphaseCollector(const ::fcl::CollisionRequestd& request = ::fcl::CollisionRequestd(),

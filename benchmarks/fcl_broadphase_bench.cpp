@@ -1,0 +1,221 @@
+// Several mesh objects at once: one pass of FCL's broadphase manager
+// (DynamicAABBTreeCollisionManager) over a floor of separate tile models and
+// the shapes on it, answered per pair by fcl::collide against meshcontact's
+// BroadphaseCollector, in the same run, single thread.
+//
+// Scene: scenes::tiledFloor, 8 x 8 tiles of 8 x 8 cells of 0.5 m (64
+// BVHModel<OBBRSS> of 128 triangles, 8,192 in all, over 32 m x 32 m). 64
+// shapes, the five kinds of fcl_bench.cpp in turn (sphere, capsule, box,
+// cylinder, hexagonal prism), at seeded poses: uniform over the floor,
+// random orientations, the centre from 0.5 h below to 1.5 h above it (h:
+// half the shape's largest extent), so that most shapes touch the floor and
+// many lie across a seam between tiles. Two managers, as a robot checked
+// against its environment is usually set up (the tiles in one, the shapes in
+// the other, so that no tile-tile or shape-shape pair is reported); nothing
+// moves: both are set up once and every iteration is one pass of
+// shapes.collide(&environment, ...).
+//
+// Variants (each iteration is one pass; the time is per pass, the counters
+// per shape):
+//   FclPerPair        a callback that calls fcl::collide (GST_LIBCCD) on
+//                     every pair the manager reports and keeps its result:
+//                     per pair, as FCL's own defaultCollisionFunction does,
+//                     without stopping at the first collision (every pair's
+//                     answer is wanted, as the collector gives per shape).
+//   Collector         BroadphaseCollector::callback, then finish(): per
+//                     shape, the tiles it touches as one surface.
+//   CollectorCached   the same with Options::cache (a ModelCache of the
+//                     64 tiles).
+// Requests:
+//   Contacts: CollisionRequest(100, enable_contact = true).
+//   Boolean:  CollisionRequest() (FCL's default: one contact, no geometry):
+//             collision checking.
+// Counters: touching = shapes in collision with the floor (the same for
+// every variant: a check that they answer alike), contacts = contacts per
+// pass.
+//
+// Reproduce (Release build):
+//   <build>/benchmarks/fcl/fcl_broadphase_bench --benchmark_enable_random_interleaving=true
+#include <meshcontact/fcl.h>
+#include <meshcontact_scenes/scenes.h>
+
+#include <benchmark/benchmark.h>
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/fcl.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <set>
+#include <vector>
+
+namespace mc = meshcontact;
+namespace scenes = meshcontact::scenes;
+
+namespace {
+
+constexpr int kTiles = 8;
+constexpr int kCellsPerTile = 8;
+constexpr double kCell = 0.5;
+constexpr int kShapes = 64;
+
+std::shared_ptr<fcl::Convexd> hexPrism(double a, double c) {
+  auto v = std::make_shared<std::vector<fcl::Vector3d>>();
+  for (int z = 0; z < 2; ++z)
+    for (int k = 0; k < 6; ++k) v->emplace_back(a * std::cos(k * M_PI / 3), a * std::sin(k * M_PI / 3), z == 0 ? c : -c);
+  auto f = std::make_shared<std::vector<int>>();
+  f->insert(f->end(), {6, 0, 1, 2, 3, 4, 5});
+  f->insert(f->end(), {6, 11, 10, 9, 8, 7, 6});
+  for (int k = 0; k < 6; ++k) f->insert(f->end(), {4, k + 6, (k + 1) % 6 + 6, (k + 1) % 6, k});
+  return std::make_shared<fcl::Convexd>(v, 8, f);
+}
+
+// The shapes of fcl_bench.cpp and half their largest extent.
+std::shared_ptr<fcl::CollisionGeometryd> makeShape(int kind, double& half) {
+  switch (kind % 5) {
+    case 0: half = 0.25; return std::make_shared<fcl::Sphered>(0.25);
+    case 1: half = 0.4; return std::make_shared<fcl::Capsuled>(0.15, 0.5);
+    case 2: half = 0.3; return std::make_shared<fcl::Boxd>(0.6, 0.4, 0.3);
+    case 3: half = 0.25; return std::make_shared<fcl::Cylinderd>(0.25, 0.4);
+    default: half = 0.3; return hexPrism(0.3, 0.2);
+  }
+}
+
+std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> buildModel(const scenes::SceneMesh& m) {
+  auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
+  std::vector<fcl::Vector3d> v(m.vertexCount());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = m.vertex(i);
+  std::vector<fcl::Triangle> t(m.triangleCount());
+  for (std::size_t i = 0; i < t.size(); ++i) t[i].set(m.indices[3 * i], m.indices[3 * i + 1], m.indices[3 * i + 2]);
+  model->beginModel();
+  model->addSubModel(v, t);
+  model->endModel();
+  return model;
+}
+
+struct World {
+  std::vector<std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>>> models;
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> tiles, shapes;
+  std::set<const fcl::CollisionObjectd*> tile_set;
+  fcl::DynamicAABBTreeCollisionManagerd environment, robot;
+  mc::fcl::ModelCache cache;
+};
+
+World& world() {
+  static std::unique_ptr<World> w;
+  if (w) return *w;
+  w = std::make_unique<World>();
+  for (const scenes::SceneMesh& tile : scenes::tiledFloor(kTiles, kTiles, kCellsPerTile, kCell, 17)) {
+    w->models.push_back(buildModel(tile));
+    w->tiles.push_back(std::make_unique<fcl::CollisionObjectd>(w->models.back()));
+    w->tile_set.insert(w->tiles.back().get());
+    const mc::Status s = w->cache.add(w->models.back().get());
+    if (!s) {
+      std::fprintf(stderr, "world: %s\n", s.message().c_str());
+      std::abort();
+    }
+  }
+  scenes::Rng rng(4099);
+  const double extent = kTiles * kCellsPerTile * kCell;
+  for (int k = 0; k < kShapes; ++k) {
+    double h = 0.0;
+    auto geometry = makeShape(k, h);
+    fcl::Transform3d tf = fcl::Transform3d::Identity();
+    tf.linear() = rng.rotation();
+    tf.translation() = fcl::Vector3d(rng.uniform(1.0, extent - 1.0), rng.uniform(1.0, extent - 1.0),
+                                     rng.uniform(-0.5 * h, 1.5 * h));
+    w->shapes.push_back(std::make_unique<fcl::CollisionObjectd>(geometry, tf));
+  }
+  for (auto& t : w->tiles) w->environment.registerObject(t.get());
+  for (auto& s : w->shapes) w->robot.registerObject(s.get());
+  w->environment.setup();
+  w->robot.setup();
+  return *w;
+}
+
+fcl::CollisionRequestd requestFor(bool contacts) {
+  return contacts ? fcl::CollisionRequestd(100, true) : fcl::CollisionRequestd();
+}
+
+// fcl::collide on every pair the manager reports; counts the shapes in
+// collision with a tile and the contacts.
+struct PerPair {
+  fcl::CollisionRequestd request;
+  fcl::CollisionResultd result;
+  const std::set<const fcl::CollisionObjectd*>* tiles = nullptr;
+  std::set<const fcl::CollisionObjectd*> touching;
+  std::size_t contacts = 0;
+
+  static bool callback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
+    PerPair& p = *static_cast<PerPair*>(data);
+    p.result.clear();
+    fcl::collide(o1, o2, p.request, p.result);
+    p.contacts += p.result.numContacts();
+    const bool t1 = p.tiles->count(o1) != 0, t2 = p.tiles->count(o2) != 0;
+    if (p.result.isCollision() && t1 != t2) p.touching.insert(t1 ? o2 : o1);
+    return false;
+  }
+};
+
+void BM_FclPerPair(benchmark::State& state, bool contacts) {
+  World& w = world();
+  std::size_t touching = 0, total = 0;
+  for (auto _ : state) {
+    PerPair data;
+    data.request = requestFor(contacts);
+    data.tiles = &w.tile_set;
+    w.robot.collide(&w.environment, &data, PerPair::callback);
+    touching = data.touching.size();
+    total = data.contacts;
+    benchmark::DoNotOptimize(total);
+  }
+  state.counters["touching"] = static_cast<double>(touching);
+  state.counters["contacts"] = static_cast<double>(total);
+}
+
+void BM_Collector(benchmark::State& state, bool contacts, bool cached) {
+  World& w = world();
+  mc::fcl::Options options;
+  if (cached) options.cache = &w.cache;
+  mc::fcl::BroadphaseCollector collector(requestFor(contacts), options);
+  std::size_t touching = 0, total = 0;
+  for (auto _ : state) {
+    collector.clear();
+    w.robot.collide(&w.environment, &collector, mc::fcl::BroadphaseCollector::callback);
+    const mc::Status s = collector.finish();
+    if (!s) {
+      state.SkipWithError(s.message().c_str());
+      return;
+    }
+    std::set<const fcl::CollisionObjectd*> shapes;
+    for (const mc::fcl::ObjectContact& c : collector.contacts())
+      if (w.tile_set.count(c.o1) != 0 && w.tile_set.count(c.o2) == 0) shapes.insert(c.o2);
+    touching = shapes.size();
+    total = collector.contacts().size();
+    benchmark::DoNotOptimize(total);
+  }
+  state.counters["touching"] = static_cast<double>(touching);
+  state.counters["contacts"] = static_cast<double>(total);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  world();  // built before timing
+  for (const bool contacts : {true, false}) {
+    const char* request = contacts ? "Contacts" : "Boolean";
+    benchmark::RegisterBenchmark((std::string("FclPerPair/") + request).c_str(), BM_FclPerPair, contacts)
+        ->Repetitions(5)
+        ->ReportAggregatesOnly(false);
+    benchmark::RegisterBenchmark((std::string("Collector/") + request).c_str(), BM_Collector, contacts, false)
+        ->Repetitions(5);
+    benchmark::RegisterBenchmark((std::string("CollectorCached/") + request).c_str(), BM_Collector, contacts, true)
+        ->Repetitions(5);
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
