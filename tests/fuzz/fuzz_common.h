@@ -81,12 +81,21 @@ inline std::vector<MeshInstance> buildPieces(FuzzedDataProvider& in, std::vector
 
 inline Pose pose(FuzzedDataProvider& in, double scale) {
   Pose p;
-  switch (in.ConsumeIntegralInRange<int>(0, 3)) {
+  const auto quaternion = [&in] {
+    Eigen::Quaterniond q(value(in, 1.0), value(in, 1.0), value(in, 1.0), value(in, 1.0));
+    if (q.norm() > 1e-6 && std::isfinite(q.norm())) q.normalize();
+    return q.toRotationMatrix();
+  };
+  switch (in.ConsumeIntegralInRange<int>(0, 4)) {
     case 0: return p;  // identity
-    case 1: {          // a rotation from a (normalized) quaternion
-      Eigen::Quaterniond q(value(in, 1.0), value(in, 1.0), value(in, 1.0), value(in, 1.0));
-      if (q.norm() > 1e-6 && std::isfinite(q.norm())) q.normalize();
-      p.rotation = q.toRotationMatrix();
+    case 1:            // a rotation from a (normalized) quaternion
+      p.rotation = quaternion();
+      break;
+    case 2: {  // a rotation off by 1e-16..1e-6 per entry: either side of the 1e-9 orthonormality bound
+      p.rotation = quaternion();
+      const double off = std::ldexp(1.0, -in.ConsumeIntegralInRange<int>(20, 53));
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) p.rotation(r, c) += off * in.ConsumeFloatingPointInRange<double>(-1.0, 1.0);
       break;
     }
     default:  // arbitrary entries: mostly invalid rotations
