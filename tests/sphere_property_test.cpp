@@ -347,6 +347,38 @@ TEST(Midphase, VisitNearSphereVisitsTheSphereQuerysTrianglesAndStopsAtAHit) {
   std::printf("visitNearSphere: first triangle within a cell of the centre on %zu of %zu queries\n", first_near,
               stopped);
   EXPECT_GE(first_near, stopped * 9 / 10);
+
+  // Meshes of 1 to 4 triangles (a root whose lanes are all leaves), an
+  // unbuilt mesh and one whose triangles are all degenerate (no hierarchy):
+  // the same triangles as querySphere, and nothing for the last two.
+  for (std::uint32_t count = 1; count <= 4; ++count) {
+    SceneMesh fan;
+    fan.vertices = {0, 0, 0};
+    for (std::uint32_t k = 0; k <= count; ++k)
+      fan.vertices.insert(fan.vertices.end(), {std::cos(0.5 * k), std::sin(0.5 * k), 0.0});
+    for (std::uint32_t k = 0; k < count; ++k) fan.indices.insert(fan.indices.end(), {0, k + 1, k + 2});
+    const TriangleMesh small = testing::buildMesh(fan);
+    for (const Vec3& centre : {Vec3(0.2, 0.1, 0.3), Vec3(0.9, 0.9, 0.0), Vec3(-0.5, 0.0, 0.1), Vec3(3, 3, 3)}) {
+      std::vector<std::uint32_t> hits;
+      small.querySphere(centre, 0.5, hits, queue);
+      Recorder all;
+      EXPECT_FALSE(small.visitNearSphere(centre, 0.5, all, stack));
+      std::sort(hits.begin(), hits.end());
+      std::sort(all.seen.begin(), all.seen.end());
+      EXPECT_EQ(all.seen, hits) << count << " triangles, centre " << str(centre);
+    }
+  }
+  TriangleMesh unbuilt;
+  SceneMesh flat_only;
+  flat_only.vertices = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+  flat_only.indices = {0, 1, 2};
+  const TriangleMesh degenerate = testing::buildMesh(flat_only);
+  ASSERT_EQ(degenerate.degenerateTriangleCount(), 1u);
+  for (const TriangleMesh* mesh : {static_cast<const TriangleMesh*>(&unbuilt), &degenerate}) {
+    Recorder none;
+    EXPECT_FALSE(mesh->visitNearSphere(Vec3(1, 0, 0), 5.0, none, stack));
+    EXPECT_TRUE(none.seen.empty());
+  }
 }
 
 // Edge and vertex contacts are ranked by squared distance and finished only

@@ -471,6 +471,15 @@ void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<st
 bool TriangleMesh::visitNearSphere(const Vec3& center, double radius, TriangleVisitor& visitor,
                                    std::vector<std::int32_t>& stack) const {
   if (nodes_.empty()) return false;
+  // querySphere's two tests, so that the triangles are exactly its own: the
+  // float query box (rounded outward) on every lane, and the ball on the
+  // leaves. The ball also prunes inner lanes here: a lane's box contains
+  // its subtree's boxes, and the rounded distance only grows from a box to
+  // one inside it, so no leaf querySphere keeps is lost with its parent.
+  const Vec3 lo = center - Vec3::Constant(radius), hi = center + Vec3::Constant(radius);
+  const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
+  const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
+  const QueryBox box(qlo, qhi);
   const LeafNearSphere near{center, radius * radius};
   // One stack for inner nodes (index >= 0) and triangles (~index < 0, as
   // BvhNode::child encodes them): a node's near lanes are pushed farthest
@@ -485,7 +494,7 @@ bool TriangleMesh::visitNearSphere(const Vec3& center, double radius, TriangleVi
       continue;
     }
     const BvhNode& n = nodes_[static_cast<std::size_t>(id)];
-    const unsigned bits = near(n) & n.lanes;
+    const unsigned bits = box.overlapping(n) & near(n);  // overlapping() keeps only the lanes in use
     if (bits == 0) continue;
     // Up to four lanes, sorted by the squared distance from their box
     // centre to `center` (insertion sort; the lane index breaks ties).

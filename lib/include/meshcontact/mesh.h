@@ -136,7 +136,7 @@ class TriangleMesh {
   /// sphere). Same order and guarantees as queryBox.
   void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                    std::vector<std::int32_t>& queue) const;
-  /// The triangles querySphere reports, handed to `visitor` one at a time
+  /// Exactly the triangles querySphere reports, handed to `visitor` one at a time
   /// until it returns true: for a search that ends at its first hit
   /// (collision checking), where gathering every triangle first would pay
   /// for the whole walk. Depth first, at each node the lane whose box centre
