@@ -5,7 +5,7 @@
 //
 // Scene: scenes::tiledFloor, 8 x 8 tiles of 8 x 8 cells of 0.5 m (64
 // BVHModel<OBBRSS> of 128 triangles, 8,192 in all, over 32 m x 32 m). 64
-// shapes, the five kinds of fcl_bench.cpp in turn (sphere, capsule, box,
+// shapes, five of fcl_bench.cpp's kinds in turn (sphere, capsule, box,
 // cylinder, hexagonal prism), at seeded poses: uniform over the floor,
 // random orientations, the centre from 0.5 h below to 1.5 h above it (h:
 // half the shape's largest extent), so that most shapes touch the floor and
@@ -18,10 +18,12 @@
 // Variants (each iteration is one pass; the time is per pass, the counters
 // per shape):
 //   FclPerPair        a callback that calls fcl::collide (GST_LIBCCD) on
-//                     every pair the manager reports and keeps its result:
-//                     per pair, as FCL's own defaultCollisionFunction does,
-//                     without stopping at the first collision (every pair's
-//                     answer is wanted, as the collector gives per shape).
+//                     the pairs the manager reports, as FCL's own
+//                     defaultCollisionFunction does, without ending the pass
+//                     at the first collision: every shape's answer is
+//                     wanted, as the collector gives them. With the Boolean
+//                     request it skips the pairs of a shape already found in
+//                     collision, as the collector's check does.
 //   Collector         BroadphaseCollector::callback, then finish(): per
 //                     shape, the tiles it touches as one surface.
 //   CollectorCached   the same with Options::cache (a ModelCache of the
@@ -71,7 +73,7 @@ std::shared_ptr<fcl::Convexd> hexPrism(double a, double c) {
   return std::make_shared<fcl::Convexd>(v, 8, f);
 }
 
-// The shapes of fcl_bench.cpp and half their largest extent.
+// Five of fcl_bench.cpp's shapes and half their largest extent.
 std::shared_ptr<fcl::CollisionGeometryd> makeShape(int kind, double& half) {
   switch (kind % 5) {
     case 0: half = 0.25; return std::make_shared<fcl::Sphered>(0.25);
@@ -149,11 +151,13 @@ struct PerPair {
 
   static bool callback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
     PerPair& p = *static_cast<PerPair*>(data);
+    const bool t1 = p.tiles->count(o1) != 0, t2 = p.tiles->count(o2) != 0;
+    const fcl::CollisionObjectd* shape = t1 != t2 ? (t1 ? o2 : o1) : nullptr;
+    if (!p.request.enable_contact && shape != nullptr && p.touching.count(shape) != 0) return false;
     p.result.clear();
     fcl::collide(o1, o2, p.request, p.result);
     p.contacts += p.result.numContacts();
-    const bool t1 = p.tiles->count(o1) != 0, t2 = p.tiles->count(o2) != 0;
-    if (p.result.isCollision() && t1 != t2) p.touching.insert(t1 ? o2 : o1);
+    if (p.result.isCollision() && shape != nullptr) p.touching.insert(shape);
     return false;
   }
 };

@@ -87,6 +87,36 @@ TEST(Broadphase, TilesAreOneSurface) {
       EXPECT_EQ(compareContacts({cached_collector.contacts()[i].contact}, {collector.contacts()[i].contact}, 0.0), "");
     }
 
+    // Collision checking (FCL's default request) on the same shallow
+    // placements, many across a seam: one contact exactly for the shapes the
+    // grouped contacts query gives any (for a sphere, capsule or box, a
+    // triangle alone has a contact iff the whole query has some).
+    std::map<const ::fcl::CollisionObjectd*, int> checked;
+    const fcl::Options plain;
+    for (const fcl::Options* options : {&plain, static_cast<const fcl::Options*>(&cached)}) {
+      fcl::BroadphaseCollector checker(::fcl::CollisionRequestd(), *options);
+      manager.collide(&checker, fcl::BroadphaseCollector::callback);
+      ASSERT_TRUE(checker.finish().isOk());
+      std::map<const ::fcl::CollisionObjectd*, int> count;
+      for (const fcl::ObjectContact& c : checker.contacts())
+        if (world.tileOf(c.o1->collisionGeometry().get()) >= 0) ++count[c.o2];
+      if (options == &plain) {
+        checked = count;
+      } else {
+        EXPECT_EQ(count, checked) << "round " << rounds << ": checking with a cache";
+      }
+    }
+    std::set<const ::fcl::CollisionObjectd*> touched_shapes;
+    for (const fcl::ObjectContact& c : collector.contacts())
+      if (world.tileOf(c.o1->collisionGeometry().get()) >= 0) touched_shapes.insert(c.o2);
+    for (const auto& shape : shapes) {
+      const auto it = checked.find(shape.get());
+      EXPECT_EQ(it != checked.end(), touched_shapes.count(shape.get()) != 0) << "round " << rounds;
+      if (it != checked.end()) {
+        EXPECT_EQ(it->second, 1);
+      }
+    }
+
     // Contacts per shape (grouped) and the shape-vs-shape ones (forwarded).
     std::map<const ::fcl::CollisionObjectd*, std::vector<::fcl::Contactd>> per_shape;
     for (const fcl::ObjectContact& c : collector.contacts()) {

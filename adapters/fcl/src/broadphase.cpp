@@ -96,9 +96,11 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
   // pairs' answers, which seams do not change. Each pair gets collide()'s
   // own check, which stops at its first triangle in contact, and the first
   // pair in collision gives the group's contact; the grouped query would
-  // build every contact of every mesh only to keep one. Every pair is
-  // validated first: a bad one is reported (and the group gets no contact),
-  // not skipped because an earlier mesh was hit.
+  // build every contact of every mesh only to keep one. Every pair's model
+  // and transforms are checked first (checkPair): such an error is reported
+  // (and the group gets no contact), not skipped because an earlier mesh was
+  // hit. What only a walk finds (a triangle indexing past the vertices) is
+  // found, as in one collide() check, where the walk reaches it.
   if (!request.enable_contact && request.num_max_contacts == 1 && options.settings.trace == nullptr) {
     for (const ::fcl::CollisionObjectd* m : group_meshes) {
       detail::MeshDesc mesh;

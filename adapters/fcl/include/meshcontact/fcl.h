@@ -144,7 +144,7 @@ class Scratch {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Optional, for the fastest queries on large models: a compact copy of each
+/// Optional, for faster queries on large models: a compact copy of each
 /// added model's hierarchy (the core's TriangleMesh: 4-wide float nodes,
 /// 43-62 bytes per triangle, also built by FCL; the vertices are read in
 /// place from the model, the triangles copied as 32-bit indices), owned by
@@ -192,7 +192,8 @@ struct Report {
     kForwarded,    // not a mesh-vs-shape pair (or enable_cost): fcl::collide
   };
   Route route = Route::kMeshcontact;
-  /// Triangles the model's BVH gave (collide) or FCL's raw result named
+  /// Triangles the model's BVH gave (collide; collision checking counts
+  /// those it visited before its first hit) or FCL's raw result named
   /// (postFilter).
   std::size_t candidates = 0;
   /// Contacts meshcontact produced, before the num_max_contacts cut.
@@ -249,7 +250,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
 /// says why. It walks the model's own hierarchy; on large models the Status
 /// variant with Options::cache is faster for contacts, and for collision
 /// checking at scattered poses; along a path, where the model's nodes stay
-/// in the CPU's caches, collision checking is about as fast either way
+/// in the CPU's caches, collision checking is within 16% either way
 /// (benchmarks/fcl_bench.cpp: from 16% slower to 5% faster with the cache).
 std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                     const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result);
@@ -309,7 +310,8 @@ struct ObjectContact {
 /// Pairs that are not mesh-vs-shape are passed to fcl::collide in the
 /// manager's order. request.num_max_contacts applies per shape (all its
 /// meshes together) and per forwarded pair. Collision checking (FCL's
-/// default request: enable_contact false, num_max_contacts 1) gives each
+/// default request: enable_contact false, num_max_contacts 1; no
+/// Options::settings.trace) gives each
 /// shape that touches any of its meshes one contact: its meshes are checked
 /// in turn as collide() checks one (the first triangle in contact ends a
 /// check), and the first in collision is the one reported. The callback
