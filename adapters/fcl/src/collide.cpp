@@ -385,8 +385,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   }
 
   if (compact) {
-    // The compact copy of the hierarchy: the core's own midphase (which also
-    // sets the keys), on the query volume's bounds.
+    // The compact copy of the hierarchy (the ModelCache's TriangleMesh).
     if (checking) {
       // The triangles near the ball (tightened above) one at a time, nearest
       // the query's centre first, as the walk of FCL's tree below: the first
