@@ -28,6 +28,14 @@
 //                     shape, the tiles it touches as one surface.
 //   CollectorCached   the same with Options::cache (a ModelCache of the
 //                     64 tiles).
+//   FclDefault        FCL's DefaultCollisionFunction with a
+//                     DefaultCollisionData: it ends the pass once a
+//                     collision has filled num_max_contacts (with the
+//                     Boolean request: at the first pair in collision).
+//   DropInDefault     meshcontact::fcl::defaultCollisionFunction, the same
+//                     with the drop-in collide() per pair.
+// The Default variants take the Contacts request with room for every
+// contact (num_max_contacts 100000), so that neither ends the pass early.
 // Requests:
 //   Contacts: CollisionRequest(100, enable_contact = true).
 //   Boolean:  CollisionRequest() (FCL's default: one contact, no geometry):
@@ -43,6 +51,7 @@
 
 #include <benchmark/benchmark.h>
 #include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/broadphase/default_broadphase_callbacks.h>
 #include <fcl/fcl.h>
 
 #include <cmath>
@@ -203,6 +212,25 @@ void BM_Collector(benchmark::State& state, bool contacts, bool cached) {
   state.counters["contacts"] = static_cast<double>(total);
 }
 
+// FCL's DefaultCollisionFunction or meshcontact's, on a fresh
+// DefaultCollisionData per pass.
+void BM_Default(benchmark::State& state, bool contacts, bool drop_in) {
+  World& w = world();
+  std::size_t total = 0;
+  for (auto _ : state) {
+    fcl::DefaultCollisionData<double> data;
+    data.request = contacts ? fcl::CollisionRequestd(100000, true) : fcl::CollisionRequestd();
+    if (drop_in)
+      w.robot.collide(&w.environment, &data, mc::fcl::defaultCollisionFunction);
+    else
+      w.robot.collide(&w.environment, &data, fcl::DefaultCollisionFunction<double>);
+    total = data.result.numContacts();
+    benchmark::DoNotOptimize(total);
+  }
+  if (drop_in && !mc::fcl::lastStatus()) state.SkipWithError(mc::fcl::lastStatus().message().c_str());
+  state.counters["contacts"] = static_cast<double>(total);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -210,11 +238,14 @@ int main(int argc, char** argv) {
   for (const bool contacts : {true, false}) {
     const char* request = contacts ? "Contacts" : "Boolean";
     benchmark::RegisterBenchmark((std::string("FclPerPair/") + request).c_str(), BM_FclPerPair, contacts)
-        ->Repetitions(5)
-        ->ReportAggregatesOnly(false);
+        ->Repetitions(5);
     benchmark::RegisterBenchmark((std::string("Collector/") + request).c_str(), BM_Collector, contacts, false)
         ->Repetitions(5);
     benchmark::RegisterBenchmark((std::string("CollectorCached/") + request).c_str(), BM_Collector, contacts, true)
+        ->Repetitions(5);
+    benchmark::RegisterBenchmark((std::string("FclDefault/") + request).c_str(), BM_Default, contacts, false)
+        ->Repetitions(5);
+    benchmark::RegisterBenchmark((std::string("DropInDefault/") + request).c_str(), BM_Default, contacts, true)
         ->Repetitions(5);
   }
   benchmark::Initialize(&argc, argv);

@@ -6,6 +6,7 @@
 #include "fcl_test_support.h"
 
 #include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/broadphase/default_broadphase_callbacks.h>
 
 #include <map>
 #include <set>
@@ -255,6 +256,94 @@ TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
               checked, touching, sunk, apart);
   EXPECT_GT(sunk, touching / 10);
   EXPECT_GT(apart, checked / 4 / 5);
+}
+
+// defaultCollisionFunction against FCL's DefaultCollisionFunction on the
+// same managers: rounds of 3 shapes placed clearly across, above or below
+// the tiled floor (so that the answer does not hang on FCL's tolerances).
+//  - Checking (FCL's default request): both answer whether anything touches
+//    the floor, and stop there (one contact each).
+//  - Contacts, room for all: every pair is queried; the result is the drop-in
+//    collide() on each pair the manager reports, in its order.
+//  - Contacts, num_max_contacts 3: the pass stops once 3 are found.
+// An error ends the pass at once; lastStatus() says why.
+TEST(Broadphase, DefaultCollisionFunctionIsFclsWithTheDropIn) {
+  scenes::Rng rng(64);
+  const TiledWorld world(randomPose(rng, 2.0));
+  const std::vector<ShapeCase> kinds = allShapes();
+  int in_collision = 0, rounds = 0, capped = 0;
+  for (; rounds < testing::scaled(300) / 3; ++rounds) {
+    std::vector<std::unique_ptr<::fcl::CollisionObjectd>> shapes;
+    bool any = false;
+    for (int k = 0; k < 3; ++k) {
+      const ShapeCase& shape = kinds[static_cast<std::size_t>(rng.uniform(0.0, 6.999))];
+      Pose local;
+      local.rotation = rng.rotation();
+      const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
+      const double high = shape.extentAlong(local.rotation.transpose() * Vec3::UnitZ());
+      const double pick = rng.uniform(0.0, 1.0);
+      double z;
+      if (pick < 0.2) z = rng.uniform(-high + 1e-3, low - 1e-3);  // across the plane
+      else if (pick < 0.6) z = low + rng.uniform(1e-3, 0.1);       // above
+      else z = -high - rng.uniform(1e-3, 0.1);                     // below
+      any |= pick < 0.2;
+      local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
+      shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * local)));
+    }
+    // Shapes and tiles in separate managers: no tile-tile or shape-shape pair.
+    ::fcl::DynamicAABBTreeCollisionManagerd floor, bodies;
+    for (const auto& t : world.tiles) floor.registerObject(t.get());
+    for (const auto& sh : shapes) bodies.registerObject(sh.get());
+    floor.setup();
+    bodies.setup();
+
+    ::fcl::DefaultCollisionData<double> theirs, ours;
+    bodies.collide(&floor, &theirs, ::fcl::DefaultCollisionFunction<double>);
+    bodies.collide(&floor, &ours, fcl::defaultCollisionFunction);
+    ASSERT_TRUE(fcl::lastStatus().isOk()) << fcl::lastStatus().message();
+    EXPECT_EQ(ours.result.isCollision(), any) << "round " << rounds;
+    EXPECT_EQ(theirs.result.isCollision(), any) << "round " << rounds;
+    EXPECT_EQ(ours.done, any);
+    EXPECT_EQ(ours.result.numContacts(), any ? 1u : 0u);
+    in_collision += any;
+
+    // Every pair, in the manager's order, through the drop-in itself.
+    struct Pairs {
+      std::vector<std::pair<::fcl::CollisionObjectd*, ::fcl::CollisionObjectd*>> list;
+      static bool record(::fcl::CollisionObjectd* a, ::fcl::CollisionObjectd* b, void* data) {
+        static_cast<Pairs*>(data)->list.emplace_back(a, b);
+        return false;
+      }
+    } pairs;
+    bodies.collide(&floor, &pairs, Pairs::record);
+    ::fcl::CollisionResultd expected;
+    for (const auto& [a, b] : pairs.list) fcl::collide(a, b, ::fcl::CollisionRequestd(100000, true), expected);
+    ::fcl::DefaultCollisionData<double> all;
+    all.request = ::fcl::CollisionRequestd(100000, true);
+    bodies.collide(&floor, &all, fcl::defaultCollisionFunction);
+    EXPECT_FALSE(all.done);
+    EXPECT_EQ(compareContacts(contactsOf(all.result), contactsOf(expected), 0.0), "") << "round " << rounds;
+
+    ::fcl::DefaultCollisionData<double> three;
+    three.request = ::fcl::CollisionRequestd(3, true);
+    bodies.collide(&floor, &three, fcl::defaultCollisionFunction);
+    EXPECT_EQ(three.result.numContacts(), std::min<std::size_t>(3, expected.numContacts())) << "round " << rounds;
+    EXPECT_EQ(three.done, expected.numContacts() >= 3);
+    capped += expected.numContacts() > 3;
+  }
+  std::printf("%d rounds of 3 shapes: %d with a shape on the floor, %d with more than 3 contacts\n", rounds,
+              in_collision, capped);
+  EXPECT_GT(in_collision, rounds / 4);
+  EXPECT_LT(in_collision, rounds * 3 / 4);
+  EXPECT_GT(capped, rounds / 20);
+
+  // An error (a sphere of negative radius) ends the pass at once.
+  ::fcl::CollisionObjectd bad(std::make_shared<::fcl::Sphered>(-1.0));
+  ::fcl::DefaultCollisionData<double> data;
+  EXPECT_TRUE(fcl::defaultCollisionFunction(world.tiles[0].get(), &bad, &data));
+  EXPECT_EQ(fcl::lastStatus().code(), ErrorCode::kInvalidShape) << fcl::lastStatus().message();
+  EXPECT_FALSE(data.done);
+  EXPECT_EQ(data.result.numContacts(), 0u);
 }
 
 TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {

@@ -3,10 +3,24 @@
 // (reference §6: seams between separate meshes are internal edges too).
 #include "internal.h"
 
+#include <fcl/broadphase/default_broadphase_callbacks.h>
+
 #include <algorithm>
 #include <string>
 
 namespace meshcontact::fcl {
+
+bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* data) {
+  auto& d = *static_cast<::fcl::DefaultCollisionData<double>*>(data);
+  if (d.done) return true;
+  collide(o1, o2, d.request, d.result);  // the drop-in: it records lastStatus()
+  if (!lastStatus()) return true;
+  // FCL's own rule (DefaultCollisionFunction): done once a collision has
+  // filled the requested contacts.
+  if (!d.request.enable_cost && d.result.isCollision() && d.result.numContacts() >= d.request.num_max_contacts)
+    d.done = true;
+  return d.done;
+}
 
 struct BroadphaseCollector::Impl {
   ::fcl::CollisionRequestd request;

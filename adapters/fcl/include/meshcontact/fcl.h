@@ -12,6 +12,8 @@
 //      sphere, capsule, box, cylinder, cone, ellipsoid or convex runs the
 //      meshcontact pipeline on the model's own BVH (no copy of the model);
 //      every other pair goes to fcl::collide unchanged.
+//      defaultCollisionFunction: FCL's DefaultCollisionFunction for
+//      broadphase managers, calling this collide() on each pair.
 //   2. postFilter(o1, o2, request, raw, cleaned): for code that keeps calling
 //      fcl::collide: cleans the raw result of a mesh-vs-shape pair.
 //   3. BroadphaseCollector: a callback for FCL's broadphase managers that
@@ -258,6 +260,20 @@ std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObj
 /// The status of the calling thread's most recent drop-in collide() (ok
 /// after a successful call).
 const Status& lastStatus();
+
+/// Drop-in replacement for FCL's DefaultCollisionFunction<double>, the
+/// callback most code hands a broadphase manager, with the same data (a
+/// ::fcl::DefaultCollisionData<double>*, from
+/// <fcl/broadphase/default_broadphase_callbacks.h>) and the same contract:
+/// each pair's contacts are appended to data->result (by the drop-in
+/// collide() above), and once a collision has filled
+/// request.num_max_contacts (and enable_cost is off) data->done is set and
+/// the pass ends; a call after that returns true at once. Each pair is
+/// queried on its own, as FCL does: the seams between separate meshes are
+/// not filtered together (BroadphaseCollector does that). An error ends the
+/// pass at once (returns true, data->done unchanged, nothing appended for
+/// that pair), and lastStatus() says why.
+bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* data);
 
 /// Cleans the raw result of `fcl::collide(o1, o2, request, raw)` (either
 /// argument order; `request` is the one FCL was called with: its
