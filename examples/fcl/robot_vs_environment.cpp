@@ -6,6 +6,8 @@
 //                callback (one contact per touched triangle);
 //   meshcontact: the same broadphase with meshcontact::fcl::BroadphaseCollector
 //                (each link against all the meshes it touches, as one surface).
+// Before them, the yes/no answer of collision checking: FCL's default
+// callback against meshcontact::fcl::defaultCollisionFunction.
 // Every environment surface here is flat, so every valid normal is a face
 // normal (vertical on the table top and the boards); the count of "tilted"
 // normals (more than 2 degrees off every face normal of the touched
@@ -226,6 +228,20 @@ int main() {
       std::fprintf(stderr, "meshcontact: %s\n", s.message().c_str());
       return 1;
     }
+
+    // Collision checking, as a planner asks it (is this configuration in
+    // collision?): FCL's default request, the pass ending at the first pair
+    // in collision, with meshcontact::fcl::defaultCollisionFunction in place
+    // of FCL's callback.
+    fcl::DefaultCollisionData<double> fcl_check, mc_check;
+    environment.collide(&arm, &fcl_check, fcl::DefaultCollisionFunction<double>);
+    environment.collide(&arm, &mc_check, meshcontact::fcl::defaultCollisionFunction);
+    if (!meshcontact::fcl::lastStatus()) {
+      std::fprintf(stderr, "meshcontact: %s\n", meshcontact::fcl::lastStatus().message().c_str());
+      return 1;
+    }
+    std::printf("  in collision: FCL %s | meshcontact %s\n", fcl_check.result.isCollision() ? "yes" : "no",
+                mc_check.result.isCollision() ? "yes" : "no");
 
     for (Part& link : robot.links) {
       const fcl::CollisionGeometryd* g = link.object->collisionGeometry().get();
