@@ -41,8 +41,10 @@
 //   Boolean:  CollisionRequest() (FCL's default: one contact, no geometry):
 //             collision checking.
 // Counters: touching = shapes in collision with the floor (the same for
-// every variant: a check that they answer alike), contacts = contacts per
-// pass.
+// the per-shape variants: a check that they answer alike), contacts =
+// contacts per pass; the Default variants report pairs = the pairs queried
+// before the pass ended (with the Boolean request, the same for both when
+// they stop at the same pair).
 //
 // Reproduce (Release build):
 //   <build>/benchmarks/fcl/fcl_broadphase_bench --benchmark_enable_random_interleaving=true
@@ -214,21 +216,33 @@ void BM_Collector(benchmark::State& state, bool contacts, bool cached) {
 
 // FCL's DefaultCollisionFunction or meshcontact's, on a fresh
 // DefaultCollisionData per pass.
+struct CountedDefault {
+  fcl::DefaultCollisionData<double> data;
+  bool drop_in = false;
+  std::size_t pairs = 0;
+  static bool callback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* self) {
+    CountedDefault& c = *static_cast<CountedDefault*>(self);
+    ++c.pairs;
+    return c.drop_in ? mc::fcl::defaultCollisionFunction(o1, o2, &c.data)
+                     : fcl::DefaultCollisionFunction<double>(o1, o2, &c.data);
+  }
+};
+
 void BM_Default(benchmark::State& state, bool contacts, bool drop_in) {
   World& w = world();
-  std::size_t total = 0;
+  std::size_t total = 0, pairs = 0;
   for (auto _ : state) {
-    fcl::DefaultCollisionData<double> data;
-    data.request = contacts ? fcl::CollisionRequestd(100000, true) : fcl::CollisionRequestd();
-    if (drop_in)
-      w.robot.collide(&w.environment, &data, mc::fcl::defaultCollisionFunction);
-    else
-      w.robot.collide(&w.environment, &data, fcl::DefaultCollisionFunction<double>);
-    total = data.result.numContacts();
+    CountedDefault c;
+    c.drop_in = drop_in;
+    c.data.request = contacts ? fcl::CollisionRequestd(100000, true) : fcl::CollisionRequestd();
+    w.robot.collide(&w.environment, &c, CountedDefault::callback);
+    total = c.data.result.numContacts();
+    pairs = c.pairs;
     benchmark::DoNotOptimize(total);
   }
   if (drop_in && !mc::fcl::lastStatus()) state.SkipWithError(mc::fcl::lastStatus().message().c_str());
   state.counters["contacts"] = static_cast<double>(total);
+  state.counters["pairs"] = static_cast<double>(pairs);
 }
 
 }  // namespace

@@ -304,8 +304,19 @@ TEST(Broadphase, DefaultCollisionFunctionIsFclsWithTheDropIn) {
     EXPECT_EQ(ours.result.isCollision(), any) << "round " << rounds;
     EXPECT_EQ(theirs.result.isCollision(), any) << "round " << rounds;
     EXPECT_EQ(ours.done, any);
+    EXPECT_EQ(theirs.done, any);
     EXPECT_EQ(ours.result.numContacts(), any ? 1u : 0u);
+    EXPECT_EQ(theirs.result.numContacts(), any ? 1u : 0u);
     in_collision += any;
+
+    // enable_cost: FCL's own pair functions (the drop-in forwards such a
+    // request), and FCL's rule never ends the pass.
+    ::fcl::DefaultCollisionData<double> cost_theirs, cost_ours;
+    cost_theirs.request = cost_ours.request = ::fcl::CollisionRequestd(1, true, 10, true);
+    bodies.collide(&floor, &cost_theirs, ::fcl::DefaultCollisionFunction<double>);
+    bodies.collide(&floor, &cost_ours, fcl::defaultCollisionFunction);
+    EXPECT_FALSE(cost_ours.done);
+    EXPECT_EQ(compareContacts(contactsOf(cost_ours.result), contactsOf(cost_theirs.result), 0.0), "");
 
     // Every pair, in the manager's order, through the drop-in itself.
     struct Pairs {
@@ -337,13 +348,39 @@ TEST(Broadphase, DefaultCollisionFunctionIsFclsWithTheDropIn) {
   EXPECT_LT(in_collision, rounds * 3 / 4);
   EXPECT_GT(capped, rounds / 20);
 
-  // An error (a sphere of negative radius) ends the pass at once.
-  ::fcl::CollisionObjectd bad(std::make_shared<::fcl::Sphered>(-1.0));
-  ::fcl::DefaultCollisionData<double> data;
-  EXPECT_TRUE(fcl::defaultCollisionFunction(world.tiles[0].get(), &bad, &data));
-  EXPECT_EQ(fcl::lastStatus().code(), ErrorCode::kInvalidShape) << fcl::lastStatus().message();
-  EXPECT_FALSE(data.done);
-  EXPECT_EQ(data.result.numContacts(), 0u);
+  // An error ends the pass at once, marks it done and leaves the result
+  // without that pair: a box across a seam of the floor (several pairs) with
+  // a rotation 1e-3 from orthonormal, which FCL accepts and the drop-in
+  // refuses.
+  Pose skewed;
+  skewed.rotation = 1.001 * Eigen::Matrix3d(Eigen::AngleAxisd(0.3, Vec3::UnitZ()));
+  skewed.translation = Vec3(2.0, 2.0, 0.0);  // at the corner of four tiles
+  ::fcl::CollisionObjectd bad(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), toTransform(world.floor_pose * skewed));
+  ::fcl::DynamicAABBTreeCollisionManagerd floor, body;
+  for (const auto& t : world.tiles) floor.registerObject(t.get());
+  body.registerObject(&bad);
+  floor.setup();
+  body.setup();
+  struct Counted {
+    ::fcl::DefaultCollisionData<double> data;
+    int calls = 0, pairs = 0;
+    static bool call(::fcl::CollisionObjectd* a, ::fcl::CollisionObjectd* b, void* self) {
+      auto& c = *static_cast<Counted*>(self);
+      ++c.calls;
+      return fcl::defaultCollisionFunction(a, b, &c.data);
+    }
+    static bool count(::fcl::CollisionObjectd*, ::fcl::CollisionObjectd*, void* self) {
+      ++static_cast<Counted*>(self)->pairs;
+      return false;
+    }
+  } counted;
+  body.collide(&floor, &counted, Counted::count);
+  ASSERT_GE(counted.pairs, 2);
+  body.collide(&floor, &counted, Counted::call);
+  EXPECT_EQ(counted.calls, 1);
+  EXPECT_EQ(fcl::lastStatus().code(), ErrorCode::kInvalidPose) << fcl::lastStatus().message();
+  EXPECT_TRUE(counted.data.done);
+  EXPECT_EQ(counted.data.result.numContacts(), 0u);
 }
 
 TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {

@@ -14,7 +14,13 @@ bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjec
   auto& d = *static_cast<::fcl::DefaultCollisionData<double>*>(data);
   if (d.done) return true;
   collide(o1, o2, d.request, d.result);  // the drop-in: it records lastStatus()
-  if (!lastStatus()) return true;
+  if (!lastStatus()) {
+    // The pass ends here, its result incomplete: `done` marks it (a caller
+    // reading only result.isCollision() must not take the rest as clear),
+    // and lastStatus() says why.
+    d.done = true;
+    return true;
+  }
   // FCL's own rule (DefaultCollisionFunction): done once a collision has
   // filled the requested contacts.
   if (!d.request.enable_cost && d.result.isCollision() && d.result.numContacts() >= d.request.num_max_contacts)

@@ -270,9 +270,12 @@ const Status& lastStatus();
 /// request.num_max_contacts (and enable_cost is off) data->done is set and
 /// the pass ends; a call after that returns true at once. Each pair is
 /// queried on its own, as FCL does: the seams between separate meshes are
-/// not filtered together (BroadphaseCollector does that). An error ends the
-/// pass at once (returns true, data->done unchanged, nothing appended for
-/// that pair), and lastStatus() says why.
+/// not filtered together (BroadphaseCollector does that). An error (input
+/// the drop-in refuses, e.g. a rotation farther than 1e-6 from orthonormal,
+/// which FCL accepts) ends the pass at once: nothing is appended for that
+/// pair, the pairs after it are not queried, data->done is set, and
+/// lastStatus() says why. So right after a pass with a fresh data, done
+/// with a non-ok lastStatus() means the result is incomplete, not clear.
 bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* data);
 
 /// Cleans the raw result of `fcl::collide(o1, o2, request, raw)` (either
