@@ -1,6 +1,8 @@
-// BroadphaseCollector: pairs from an FCL broadphase manager, grouped per
-// shape so that all the meshes a shape touches are filtered as one surface
-// (reference §6: seams between separate meshes are internal edges too).
+// For FCL's broadphase managers. defaultCollisionFunction: FCL's default
+// callback with the drop-in collide() on each pair. BroadphaseCollector:
+// pairs from a manager, grouped per shape so that all the meshes a shape
+// touches are filtered as one surface (reference §6: seams between separate
+// meshes are internal edges too).
 #include "internal.h"
 
 #include <fcl/broadphase/default_broadphase_callbacks.h>
