@@ -56,6 +56,8 @@
 #include <meshcontact/meshcontact.h>
 #include <meshcontact_scenes/scenes.h>
 
+#include "fcl_bench_shapes.h"
+
 #include <benchmark/benchmark.h>
 #include <fcl/fcl.h>
 
@@ -72,6 +74,8 @@ namespace scenes = meshcontact::scenes;
 
 namespace {
 
+using namespace fclbench;
+
 constexpr int kCells = 224;
 constexpr double kCell = 0.5;
 constexpr double kAmplitude = 0.5;
@@ -81,65 +85,10 @@ constexpr int kRepetitions = 5;
 
 enum SceneId { kFlat = 0, kSine = 1, kSceneCount = 2 };
 const char* const kSceneNames[] = {"Flat", "Sine"};
-enum ShapeId { kSphere = 0, kCapsule, kBox, kCylinder, kConvex, kCone, kEllipsoid, kShapeCount };
-const char* const kShapeNames[] = {"Sphere", "Capsule", "Box", "Cylinder", "Convex", "Cone", "Ellipsoid"};
-
 double surfaceHeight(SceneId scene, double x, double y) {
   if (scene == kFlat) return 0.0;
   const double k = 2.0 * M_PI / kWavelength;
   return kAmplitude * std::sin(k * x) * std::sin(k * y);
-}
-
-std::shared_ptr<fcl::Convexd> hexPrism(double a, double c) {
-  auto v = std::make_shared<std::vector<fcl::Vector3d>>();
-  for (int z = 0; z < 2; ++z)
-    for (int k = 0; k < 6; ++k) v->emplace_back(a * std::cos(k * M_PI / 3), a * std::sin(k * M_PI / 3), z == 0 ? c : -c);
-  auto f = std::make_shared<std::vector<int>>();
-  f->insert(f->end(), {6, 0, 1, 2, 3, 4, 5});
-  f->insert(f->end(), {6, 11, 10, 9, 8, 7, 6});
-  for (int k = 0; k < 6; ++k) f->insert(f->end(), {4, k + 6, (k + 1) % 6 + 6, (k + 1) % 6, k});
-  return std::make_shared<fcl::Convexd>(v, 8, f);
-}
-
-std::shared_ptr<fcl::CollisionGeometryd> makeShape(ShapeId id) {
-  switch (id) {
-    case kSphere: return std::make_shared<fcl::Sphered>(0.25);
-    case kCapsule: return std::make_shared<fcl::Capsuled>(0.15, 0.5);
-    case kBox: return std::make_shared<fcl::Boxd>(0.6, 0.4, 0.3);
-    case kCylinder: return std::make_shared<fcl::Cylinderd>(0.25, 0.4);
-    case kConvex: return hexPrism(0.3, 0.2);
-    case kCone: return std::make_shared<fcl::Coned>(0.3, 0.5);
-    case kEllipsoid: return std::make_shared<fcl::Ellipsoidd>(0.35, 0.25, 0.15);
-    case kShapeCount: break;
-  }
-  return nullptr;
-}
-
-double halfSize(ShapeId id) {
-  switch (id) {
-    case kSphere: return 0.25;
-    case kCapsule: return 0.4;
-    case kBox: return 0.3;
-    case kCylinder: return 0.25;
-    case kConvex: return 0.3;
-    case kCone: return 0.3;
-    case kEllipsoid: return 0.35;
-    case kShapeCount: break;
-  }
-  return 0.0;
-}
-
-template <class BV>
-std::shared_ptr<fcl::BVHModel<BV>> buildModel(const scenes::SceneMesh& m) {
-  auto model = std::make_shared<fcl::BVHModel<BV>>();
-  std::vector<fcl::Vector3d> v(m.vertexCount());
-  for (std::size_t i = 0; i < v.size(); ++i) v[i] = m.vertex(i);
-  std::vector<fcl::Triangle> t(m.triangleCount());
-  for (std::size_t i = 0; i < t.size(); ++i) t[i].set(m.indices[3 * i], m.indices[3 * i + 1], m.indices[3 * i + 2]);
-  model->beginModel();
-  model->addSubModel(v, t);
-  model->endModel();
-  return model;
 }
 
 // The Path pose list: a body wandering over the terrain (see the top of
@@ -198,8 +147,8 @@ Fixture& fixture() {
                                                   : scenes::sineTerrain(kCells, kCells, kCell, kAmplitude,
                                                                         kWavelength, 7);
     SceneFixture& sf = f->scenes[s];
-    sf.obbrss = buildModel<fcl::OBBRSSd>(mesh);
-    if (scene == kSine) f->sine_aabb = buildModel<fcl::AABBd>(mesh);
+    sf.obbrss = scenes::fclModel<fcl::OBBRSSd>(mesh);
+    if (scene == kSine) f->sine_aabb = scenes::fclModel<fcl::AABBd>(mesh);
     for (const mc::Status& st : {f->cache.add(sf.obbrss.get()), sf.core.build(mesh.view())})
       if (!st) {
         std::fprintf(stderr, "fixture: %s\n", st.message().c_str());
@@ -210,7 +159,7 @@ Fixture& fixture() {
     // those of the runs before the paths existed.
     scenes::Rng path_rng(4051 + 17 * s);
     if (s == 0) {
-      const auto prism = hexPrism(0.3, 0.2);
+      const auto prism = scenes::fclHexPrism(0.3, 0.2);
       const std::vector<mc::Vec3> points(prism->getVertices().begin(), prism->getVertices().end());
       if (!f->prism.build(points, 0.0)) std::abort();
     }

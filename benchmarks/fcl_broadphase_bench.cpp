@@ -51,6 +51,8 @@
 #include <meshcontact/fcl.h>
 #include <meshcontact_scenes/scenes.h>
 
+#include "fcl_bench_shapes.h"
+
 #include <benchmark/benchmark.h>
 #include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
 #include <fcl/broadphase/default_broadphase_callbacks.h>
@@ -73,40 +75,6 @@ constexpr int kCellsPerTile = 8;
 constexpr double kCell = 0.5;
 constexpr int kShapes = 64;
 
-std::shared_ptr<fcl::Convexd> hexPrism(double a, double c) {
-  auto v = std::make_shared<std::vector<fcl::Vector3d>>();
-  for (int z = 0; z < 2; ++z)
-    for (int k = 0; k < 6; ++k) v->emplace_back(a * std::cos(k * M_PI / 3), a * std::sin(k * M_PI / 3), z == 0 ? c : -c);
-  auto f = std::make_shared<std::vector<int>>();
-  f->insert(f->end(), {6, 0, 1, 2, 3, 4, 5});
-  f->insert(f->end(), {6, 11, 10, 9, 8, 7, 6});
-  for (int k = 0; k < 6; ++k) f->insert(f->end(), {4, k + 6, (k + 1) % 6 + 6, (k + 1) % 6, k});
-  return std::make_shared<fcl::Convexd>(v, 8, f);
-}
-
-// Five of fcl_bench.cpp's shapes and half their largest extent.
-std::shared_ptr<fcl::CollisionGeometryd> makeShape(int kind, double& half) {
-  switch (kind % 5) {
-    case 0: half = 0.25; return std::make_shared<fcl::Sphered>(0.25);
-    case 1: half = 0.4; return std::make_shared<fcl::Capsuled>(0.15, 0.5);
-    case 2: half = 0.3; return std::make_shared<fcl::Boxd>(0.6, 0.4, 0.3);
-    case 3: half = 0.25; return std::make_shared<fcl::Cylinderd>(0.25, 0.4);
-    default: half = 0.3; return hexPrism(0.3, 0.2);
-  }
-}
-
-std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> buildModel(const scenes::SceneMesh& m) {
-  auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
-  std::vector<fcl::Vector3d> v(m.vertexCount());
-  for (std::size_t i = 0; i < v.size(); ++i) v[i] = m.vertex(i);
-  std::vector<fcl::Triangle> t(m.triangleCount());
-  for (std::size_t i = 0; i < t.size(); ++i) t[i].set(m.indices[3 * i], m.indices[3 * i + 1], m.indices[3 * i + 2]);
-  model->beginModel();
-  model->addSubModel(v, t);
-  model->endModel();
-  return model;
-}
-
 struct World {
   std::vector<std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>>> models;
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> tiles, shapes;
@@ -120,7 +88,7 @@ World& world() {
   if (w) return *w;
   w = std::make_unique<World>();
   for (const scenes::SceneMesh& tile : scenes::tiledFloor(kTiles, kTiles, kCellsPerTile, kCell, 17)) {
-    w->models.push_back(buildModel(tile));
+    w->models.push_back(scenes::fclModel<fcl::OBBRSSd>(tile));
     w->tiles.push_back(std::make_unique<fcl::CollisionObjectd>(w->models.back()));
     w->tile_set.insert(w->tiles.back().get());
     const mc::Status s = w->cache.add(w->models.back().get());
@@ -132,8 +100,10 @@ World& world() {
   scenes::Rng rng(4099);
   const double extent = kTiles * kCellsPerTile * kCell;
   for (int k = 0; k < kShapes; ++k) {
-    double h = 0.0;
-    auto geometry = makeShape(k, h);
+    // The first five of the FCL benchmarks' shapes, in turn.
+    const auto id = static_cast<fclbench::ShapeId>(k % 5);
+    const double h = fclbench::halfSize(id);
+    auto geometry = fclbench::makeShape(id);
     fcl::Transform3d tf = fcl::Transform3d::Identity();
     tf.linear() = rng.rotation();
     tf.translation() = fcl::Vector3d(rng.uniform(1.0, extent - 1.0), rng.uniform(1.0, extent - 1.0),

@@ -53,7 +53,7 @@ bool fclHits(const ::fcl::CollisionObjectd& a, const ::fcl::CollisionObjectd& b)
 }
 
 void runAgreement(const ShapeCase& shape, const MeshCase& mc, std::uint64_t seed) {
-  auto model = makeModel<::fcl::OBBRSSd>(mc.mesh);
+  auto model = fclModel<::fcl::OBBRSSd>(mc.mesh);
   TriangleMesh core_mesh = testing::buildMesh(mc.mesh);
   const MeshInstance instance{&core_mesh, Pose::identity()};
 

@@ -96,7 +96,7 @@ TEST(Boolean, ChecksAnswerAsTheContactsQuery) {
     QueryScratch core_scratch;
     std::vector<CandidateTriangle> candidates;
     std::vector<Contact> core_contacts;
-    auto model = makeModel<::fcl::OBBRSSd>(scene);
+    auto model = fclModel<::fcl::OBBRSSd>(scene);
     fcl::ModelCache cache;
     ASSERT_TRUE(cache.add(model.get()).isOk());
     const fcl::Options plain;

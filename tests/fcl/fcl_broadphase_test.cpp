@@ -26,7 +26,7 @@ struct TiledWorld {
   explicit TiledWorld(const Pose& pose) : floor_pose(pose) {
     for (const SceneMesh& s : scenes) {
       core_meshes.push_back(testing::buildMesh(s));
-      models.push_back(makeModel<::fcl::OBBRSSd>(s));
+      models.push_back(fclModel<::fcl::OBBRSSd>(s));
       tiles.push_back(std::make_unique<::fcl::CollisionObjectd>(models.back(), toTransform(pose)));
     }
   }

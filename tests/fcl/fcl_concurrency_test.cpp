@@ -38,7 +38,7 @@ TEST(FclConcurrency, ThreadsSharingABVHModelGiveTheSingleThreadResult) {
     for (std::size_t v = 0; v < tile.vertexCount(); ++v) tile.vertices[3 * v] += 4.0;
     all.append(tile);
   }
-  const auto model = fcltest::makeModel<::fcl::OBBRSSd>(all);
+  const auto model = fcltest::fclModel<::fcl::OBBRSSd>(all);
   ::fcl::Transform3d model_pose = ::fcl::Transform3d::Identity();
   model_pose.translation() = Vec3(0.5, -0.25, 0.125);  // a non-trivial frame
   fcl::ModelCache cache;

@@ -42,11 +42,11 @@ bool hits(const std::shared_ptr<::fcl::BVHModel<BV>>& model, const Pose& mesh_po
 
 TEST(DropIn, EveryBvTypeGivesTheSameContacts) {
   const SceneMesh mesh = terrain();
-  auto aabb = makeModel<::fcl::AABBd>(mesh);
-  auto obb = makeModel<::fcl::OBBd>(mesh);
-  auto rss = makeModel<::fcl::RSSd>(mesh);
-  auto kios = makeModel<::fcl::kIOSd>(mesh);
-  auto obbrss = makeModel<::fcl::OBBRSSd>(mesh);
+  auto aabb = fclModel<::fcl::AABBd>(mesh);
+  auto obb = fclModel<::fcl::OBBd>(mesh);
+  auto rss = fclModel<::fcl::RSSd>(mesh);
+  auto kios = fclModel<::fcl::kIOSd>(mesh);
+  auto obbrss = fclModel<::fcl::OBBRSSd>(mesh);
   scenes::Rng rng(52);
   fcl::Scratch scratch;
   int with_contacts = 0;
@@ -86,7 +86,7 @@ TEST(DropIn, EveryBvTypeGivesTheSameContacts) {
 
 TEST(DropIn, ModelCacheGivesTheSameContacts) {
   const SceneMesh mesh = terrain();
-  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  auto model = fclModel<::fcl::OBBRSSd>(mesh);
   fcl::ModelCache cache;
   ASSERT_TRUE(cache.add(model.get()).isOk());
   EXPECT_EQ(cache.size(), 1u);
@@ -159,8 +159,8 @@ void expectForwarded(const ::fcl::CollisionObjectd& o1, const ::fcl::CollisionOb
 
 TEST(DropIn, ForwardsEveryOtherPair) {
   const SceneMesh mesh = terrain();
-  auto model = makeModel<::fcl::OBBRSSd>(mesh);
-  auto kdop = makeModel<::fcl::KDOPd<18>>(mesh);
+  auto model = fclModel<::fcl::OBBRSSd>(mesh);
+  auto kdop = fclModel<::fcl::KDOPd<18>>(mesh);
   ::fcl::Transform3d shape_tf = ::fcl::Transform3d::Identity();
   shape_tf.translation() = Vec3(2.1, 2.3, 0.1);
   ::fcl::CollisionObjectd mesh_object(model), kdop_object(kdop);
@@ -170,7 +170,7 @@ TEST(DropIn, ForwardsEveryOtherPair) {
   ::fcl::CollisionObjectd halfspace(std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), 0.0));
   ::fcl::Transform3d other_tf = ::fcl::Transform3d::Identity();
   other_tf.translation() = Vec3(0.3, 0.2, 0.1);
-  ::fcl::CollisionObjectd other_mesh(makeModel<::fcl::OBBRSSd>(mesh), other_tf);
+  ::fcl::CollisionObjectd other_mesh(fclModel<::fcl::OBBRSSd>(mesh), other_tf);
 
   expectForwarded(sphere, box, contactsRequest(), "sphere vs box");
   expectForwarded(mesh_object, other_mesh, contactsRequest(), "mesh vs mesh");
@@ -189,7 +189,7 @@ TEST(DropIn, ForwardsEveryOtherPair) {
 
 TEST(DropIn, HonoursTheRequest) {
   const SceneMesh floor = scenes::flatFloor(8, 8, 0.5, 53);
-  auto model = makeModel<::fcl::OBBRSSd>(floor);
+  auto model = fclModel<::fcl::OBBRSSd>(floor);
   ::fcl::CollisionObjectd mesh(model);
   // A box sunk flat into the floor: the manifold reduction leaves 4 contacts.
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
@@ -308,7 +308,7 @@ TEST(DropIn, PassedThroughContactIsOnTheSharpSurface) {
 
 TEST(DropIn, ArgumentOrderSwapsOnlyTheConvention) {
   const SceneMesh mesh = terrain();
-  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  auto model = fclModel<::fcl::OBBRSSd>(mesh);
   scenes::Rng rng(54);
   fcl::Scratch scratch;
   for (const ShapeCase& shape : allShapes()) {
@@ -339,7 +339,7 @@ TEST(DropIn, ArgumentOrderSwapsOnlyTheConvention) {
 
 TEST(DropIn, ThreadsGetTheSameAnswers) {
   const SceneMesh mesh = terrain();
-  auto model = makeModel<::fcl::OBBRSSd>(mesh);
+  auto model = fclModel<::fcl::OBBRSSd>(mesh);
   std::vector<Pose> poses;
   scenes::Rng rng(55);
   const int count = testing::scaled(2000);
@@ -376,7 +376,7 @@ TEST(DropIn, ThreadsGetTheSameAnswers) {
 // --- Bad input -----------------------------------------------------------------
 
 struct BadInput {
-  std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>> model = makeModel<::fcl::OBBRSSd>(terrain());
+  std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>> model = fclModel<::fcl::OBBRSSd>(terrain());
   fcl::Scratch scratch;
 
   // Both the Status variant and the drop-in: the error, nothing appended.
@@ -541,7 +541,7 @@ TEST(DropInBadInput, PairFclCannotCollide) {
   ::fcl::CollisionObjectd triangle(
       std::make_shared<::fcl::TrianglePd>(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)));
   b.expectError(&mesh, &triangle, ErrorCode::kInvalidShape, "GEOM_TRIANGLE");
-  ::fcl::CollisionObjectd aabb_mesh(makeModel<::fcl::AABBd>(terrain()));
+  ::fcl::CollisionObjectd aabb_mesh(fclModel<::fcl::AABBd>(terrain()));
   b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
 }
 

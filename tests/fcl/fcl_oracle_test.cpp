@@ -51,7 +51,7 @@ struct Query {
   fcl::Scratch scratch;
 
   Query(const SceneMesh& mesh, const ShapeCase& shape, scenes::Rng& rng)
-      : model(makeModel<::fcl::OBBRSSd>(mesh)),
+      : model(fclModel<::fcl::OBBRSSd>(mesh)),
         mesh_pose(randomPose(rng, 3.0)),
         mesh_object(model, toTransform(mesh_pose)),
         shape_object(shape.make()) {}

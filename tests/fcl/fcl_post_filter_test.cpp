@@ -39,7 +39,7 @@ SceneMesh fourCells() {
 // reports three contacts: the face, a tilted one at the diagonal, one at the
 // edge, all with a negative depth.
 TEST(PostFilter, SphereAtInternalEdgesKeepsTheFaceContact) {
-  auto model = makeModel<::fcl::OBBRSSd>(fourCells());
+  auto model = fclModel<::fcl::OBBRSSd>(fourCells());
   for (const auto mode : {fcl::PostFilterMode::kRecompute, fcl::PostFilterMode::kClassifyFcl})
   for (const bool mesh_first : {true, false}) {
     SCOPED_TRACE(mode == fcl::PostFilterMode::kRecompute ? "kRecompute" : "kClassifyFcl");
@@ -98,7 +98,7 @@ void spheres(fcl::PostFilterMode mode) {
   fcl::Scratch scratch;
   int poses = 0, with_contacts = 0, same_as_dropin = 0, ghosts = 0, misses = 0, raw_tilted = 0;
   for (const auto& [name, scene] : meshes) {
-    auto model = makeModel<::fcl::OBBRSSd>(scene);
+    auto model = fclModel<::fcl::OBBRSSd>(scene);
     const scenes::SphereOracle oracle(scene);
     const bool step = std::string(name) == "step";
     const Pose mesh_pose = randomPose(rng, 2.0);
@@ -168,7 +168,7 @@ void shapesOnFloor(const ShapeCase& shape, ::fcl::GJKSolverType solver, fcl::Pos
   options.post_filter = mode;
   const bool recompute = mode == fcl::PostFilterMode::kRecompute;
   const SceneMesh floor = scenes::flatFloor(8, 8, 0.5, 41);
-  auto model = makeModel<::fcl::OBBRSSd>(floor);
+  auto model = fclModel<::fcl::OBBRSSd>(floor);
   scenes::Rng rng(42 + solver);
   const Pose mesh_pose = randomPose(rng, 2.0);
   ::fcl::CollisionObjectd mesh(model, toTransform(mesh_pose));
@@ -255,7 +255,7 @@ TEST(PostFilter, CapsulesIndep) {
 }
 
 TEST(PostFilter, Errors) {
-  auto model = makeModel<::fcl::OBBRSSd>(fourCells());
+  auto model = fclModel<::fcl::OBBRSSd>(fourCells());
   ::fcl::CollisionObjectd mesh(model);
   ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.5));
   sphere.setTranslation(Vec3(0.7, 0.6, 0.4));

@@ -1,12 +1,14 @@
 #pragma once
-// Helpers shared by the FCL adapter's tests: FCL models from scene meshes,
-// the shape cases (an FCL geometry and the core query it must agree with),
-// and conversions between FCL's conventions and the core's.
+// Helpers shared by the FCL adapter's tests: the shape cases (an FCL
+// geometry and the core query it must agree with) and conversions between
+// FCL's conventions and the core's. FCL models of scene meshes and the
+// prism come from the scene library (meshcontact_scenes/fcl_models.h).
 #include "test_support.h"
 
 #include <meshcontact/convex.h>
 #include <meshcontact/fcl.h>
 #include <meshcontact/shapes.h>
+#include <meshcontact_scenes/fcl_models.h>
 #include <meshcontact_scenes/scenes.h>
 
 #include <fcl/fcl.h>
@@ -19,20 +21,8 @@
 
 namespace meshcontact::fcltest {
 
+using scenes::fclModel;
 using scenes::SceneMesh;
-
-template <class BV>
-std::shared_ptr<::fcl::BVHModel<BV>> makeModel(const SceneMesh& m) {
-  auto model = std::make_shared<::fcl::BVHModel<BV>>();
-  std::vector<::fcl::Vector3d> v(m.vertexCount());
-  for (std::size_t i = 0; i < v.size(); ++i) v[i] = m.vertex(i);
-  std::vector<::fcl::Triangle> t(m.triangleCount());
-  for (std::size_t i = 0; i < t.size(); ++i) t[i].set(m.indices[3 * i], m.indices[3 * i + 1], m.indices[3 * i + 2]);
-  model->beginModel();
-  model->addSubModel(v, t);
-  model->endModel();
-  return model;
-}
 
 /// Several pieces as one model (duplicated vertices at the seams).
 inline SceneMesh merged(const std::vector<SceneMesh>& pieces) {
@@ -155,18 +145,6 @@ class TestConvex final : public SupportShape {
   double diagonal_ = 0.0;
 };
 
-/// A hexagonal prism (circumradius a, height 2c) as FCL's Convex.
-inline std::shared_ptr<::fcl::Convexd> hexPrism(double a, double c) {
-  auto v = std::make_shared<std::vector<::fcl::Vector3d>>();
-  for (int z = 0; z < 2; ++z)
-    for (int k = 0; k < 6; ++k) v->emplace_back(a * std::cos(k * M_PI / 3), a * std::sin(k * M_PI / 3), z == 0 ? c : -c);
-  auto f = std::make_shared<std::vector<int>>();
-  f->insert(f->end(), {6, 0, 1, 2, 3, 4, 5});
-  f->insert(f->end(), {6, 11, 10, 9, 8, 7, 6});
-  for (int k = 0; k < 6; ++k) f->insert(f->end(), {4, k + 6, (k + 1) % 6 + 6, (k + 1) % 6, k});
-  return std::make_shared<::fcl::Convexd>(v, 8, f);
-}
-
 struct ShapeCase {
   Kind kind;
   const char* name;
@@ -183,7 +161,7 @@ struct ShapeCase {
       case Kind::kCylinder: return std::make_shared<::fcl::Cylinderd>(d.x(), d.y());
       case Kind::kCone: return std::make_shared<::fcl::Coned>(d.x(), d.y());
       case Kind::kEllipsoid: return std::make_shared<::fcl::Ellipsoidd>(d);
-      case Kind::kConvex: return hexPrism(d.x(), d.y());
+      case Kind::kConvex: return scenes::fclHexPrism(d.x(), d.y());
     }
     return nullptr;
   }
