@@ -181,13 +181,38 @@ TEST(Broadphase, TilesAreOneSurface) {
   EXPECT_GT(per_pair_ghosts, rounds / 10);  // and per-pair queries do show the ghosts
 }
 
+// A pose of `shape` in the tiled floor's frame, well inside the floor and
+// clear of touching it by at least 1 mm, so that the right answer is known
+// without FCL's tolerances: across the floor's plane with probability
+// `p_across` (touching; some with the centre below the plane), above it with
+// `p_above`, else wholly below it (a floor of zero thickness: no overlap).
+struct ClearPlacement {
+  Pose local;
+  bool across = false, above = false;
+};
+ClearPlacement clearPlacement(const ShapeCase& shape, double p_across, double p_above, scenes::Rng& rng) {
+  ClearPlacement out;
+  out.local.rotation = rng.rotation();
+  const double low = shape.extentAlong(out.local.rotation.transpose() * -Vec3::UnitZ());
+  const double high = shape.extentAlong(out.local.rotation.transpose() * Vec3::UnitZ());
+  // Centre height z: lowest point z - low, highest z + high.
+  const double pick = rng.uniform(0.0, 1.0);
+  out.across = pick < p_across;
+  out.above = !out.across && pick < p_across + p_above;
+  double z;
+  if (out.across) z = rng.uniform(-high + 1e-3, low - 1e-3);
+  else if (out.above) z = low + rng.uniform(1e-3, 0.1);
+  else z = -high - rng.uniform(1e-3, 0.1);
+  out.local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
+  return out;
+}
+
 // Collision checking through the collector (FCL's default request: no
 // contact geometry, one contact): one contact for each shape that touches
-// the floor, none for the others. Every shape kind, placed clearly across the
-// floor's plane (at least 1 mm on both sides, some with the centre below
-// it), clearly above it or clearly below it (a floor of zero thickness: no
-// overlap), so the right answer is known without FCL's tolerances. The
-// contacts request answers the same, with and without a ModelCache.
+// the floor, none for the others. Every shape kind, at clear placements
+// (clearPlacement: a third across the floor's plane, a third above, a third
+// below). The contacts request answers the same, with and without a
+// ModelCache.
 TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
   scenes::Rng rng(63);
   const TiledWorld world(randomPose(rng, 2.0));
@@ -202,22 +227,13 @@ TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
     std::vector<bool> expected;
     for (int k = 0; k < 14; ++k) {
       const ShapeCase& shape = kinds[k % kinds.size()];
-      Pose local;
-      local.rotation = rng.rotation();
-      const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
-      const double high = shape.extentAlong(local.rotation.transpose() * Vec3::UnitZ());
-      // Centre height z: lowest point z - low, highest z + high.
-      const int where = static_cast<int>(rng.uniform(0.0, 3.0));
-      double z;
-      if (where == 0) z = rng.uniform(-high + 1e-3, low - 1e-3);  // across the plane
-      else if (where == 1) z = low + rng.uniform(1e-3, 0.1);      // above
-      else z = -high - rng.uniform(1e-3, 0.1);                    // below
-      local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
-      expected.push_back(where == 0);
-      touching += where == 0;
-      apart += where == 1;
-      sunk += where == 0 && z < 0.0;
-      shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * local)));
+      const ClearPlacement place = clearPlacement(shape, 1.0 / 3.0, 1.0 / 3.0, rng);
+      expected.push_back(place.across);
+      touching += place.across;
+      apart += place.above;
+      sunk += place.across && place.local.translation.z() < 0.0;
+      shapes.push_back(
+          std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * place.local)));
     }
     ::fcl::DynamicAABBTreeCollisionManagerd manager;
     for (const auto& t : world.tiles) manager.registerObject(t.get());
@@ -259,8 +275,8 @@ TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
 }
 
 // defaultCollisionFunction against FCL's DefaultCollisionFunction on the
-// same managers: rounds of 3 shapes placed clearly across, above or below
-// the tiled floor (so that the answer does not hang on FCL's tolerances).
+// same managers: rounds of 3 shapes at clear placements (clearPlacement: a
+// fifth across the floor, two fifths above, two fifths below).
 //  - Checking (FCL's default request): both answer whether anything touches
 //    the floor, and stop there (one contact each).
 //  - Contacts, room for all: every pair is queried; the result is the drop-in
@@ -277,18 +293,10 @@ TEST(Broadphase, DefaultCollisionFunctionIsFclsWithTheDropIn) {
     bool any = false;
     for (int k = 0; k < 3; ++k) {
       const ShapeCase& shape = kinds[static_cast<std::size_t>(rng.uniform(0.0, 6.999))];
-      Pose local;
-      local.rotation = rng.rotation();
-      const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
-      const double high = shape.extentAlong(local.rotation.transpose() * Vec3::UnitZ());
-      const double pick = rng.uniform(0.0, 1.0);
-      double z;
-      if (pick < 0.2) z = rng.uniform(-high + 1e-3, low - 1e-3);  // across the plane
-      else if (pick < 0.6) z = low + rng.uniform(1e-3, 0.1);       // above
-      else z = -high - rng.uniform(1e-3, 0.1);                     // below
-      any |= pick < 0.2;
-      local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
-      shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * local)));
+      const ClearPlacement place = clearPlacement(shape, 0.2, 0.4, rng);
+      any |= place.across;
+      shapes.push_back(
+          std::make_unique<::fcl::CollisionObjectd>(shape.make(), toTransform(world.floor_pose * place.local)));
     }
     // Shapes and tiles in separate managers: no tile-tile or shape-shape pair.
     ::fcl::DynamicAABBTreeCollisionManagerd floor, bodies;
