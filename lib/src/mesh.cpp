@@ -313,12 +313,13 @@ struct LeafNearSphere {
   }
 };
 
-// The lanes of node n whose boxes overlap the query box [qlo, qhi], as bits.
+// The query box [lo, hi] rounded outward to float, and the lanes of node n
+// whose boxes overlap it, as bits.
 #if defined(__SSE2__)
 struct QueryBox {
   __m128 lo[3], hi[3];
-  QueryBox(const float qlo[3], const float qhi[3]) {
-    for (int k = 0; k < 3; ++k) lo[k] = _mm_set1_ps(qlo[k]), hi[k] = _mm_set1_ps(qhi[k]);
+  QueryBox(const Vec3& qlo, const Vec3& qhi) {
+    for (int k = 0; k < 3; ++k) lo[k] = _mm_set1_ps(floatBelow(qlo[k])), hi[k] = _mm_set1_ps(floatAbove(qhi[k]));
   }
   unsigned overlapping(const BvhNode& n) const {
     __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_load_ps(n.lo[0]), hi[0]), _mm_cmpge_ps(_mm_load_ps(n.hi[0]), lo[0]));
@@ -330,8 +331,8 @@ struct QueryBox {
 #else
 struct QueryBox {
   float lo[3], hi[3];
-  QueryBox(const float qlo[3], const float qhi[3]) {
-    for (int k = 0; k < 3; ++k) lo[k] = qlo[k], hi[k] = qhi[k];
+  QueryBox(const Vec3& qlo, const Vec3& qhi) {
+    for (int k = 0; k < 3; ++k) lo[k] = floatBelow(qlo[k]), hi[k] = floatAbove(qhi[k]);
   }
   unsigned overlapping(const BvhNode& n) const {
     unsigned bits = 0;
@@ -385,9 +386,7 @@ template <class LeafTest>
 void walk(const BvhNode* nodes, const Vec3& lo, const Vec3& hi, const LeafTest& leaf_ok,
           const std::uint32_t* prefetch_indices, const double* vertices, std::vector<std::uint32_t>& out,
           std::vector<std::int32_t>& queue) {
-  const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
-  const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
-  const QueryBox query(qlo, qhi);
+  const QueryBox query(lo, hi);
   // A node writes up to 4 slots past the tail: the queue grows (to the
   // largest walk seen, then never again) when fewer are left.
   if (queue.size() < 64) queue.resize(64);
@@ -476,10 +475,7 @@ bool TriangleMesh::visitNearSphere(const Vec3& center, double radius, TriangleVi
   // leaves. The ball also prunes inner lanes here: a lane's box contains
   // its subtree's boxes, and the rounded distance only grows from a box to
   // one inside it, so no leaf querySphere keeps is lost with its parent.
-  const Vec3 lo = center - Vec3::Constant(radius), hi = center + Vec3::Constant(radius);
-  const float qlo[3] = {floatBelow(lo.x()), floatBelow(lo.y()), floatBelow(lo.z())};
-  const float qhi[3] = {floatAbove(hi.x()), floatAbove(hi.y()), floatAbove(hi.z())};
-  const QueryBox box(qlo, qhi);
+  const QueryBox box(center - Vec3::Constant(radius), center + Vec3::Constant(radius));
   const LeafNearSphere near{center, radius * radius};
   // One stack for inner nodes (index >= 0) and triangles (~index < 0, as
   // BvhNode::child encodes them): a node's near lanes are pushed farthest
