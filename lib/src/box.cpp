@@ -127,14 +127,21 @@ struct Axis {
 };
 
 // Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman).
+// Each vertex's signed distance is computed once and carried to the next
+// edge, where it is that edge's start (the same value either way).
 int clipPolygon(const Vec3* in, int count, const Vec3& plane, double offset, Vec3* out) {
+  if (count == 0) return 0;
   int n = 0;
+  const double d0 = plane.dot(in[0]) + offset;
+  double da = d0;
   for (int i = 0; i < count; ++i) {
     const Vec3& a = in[i];
-    const Vec3& b = in[(i + 1) % count];
-    const double da = plane.dot(a) + offset, db = plane.dot(b) + offset;
+    const bool last = i + 1 == count;
+    const Vec3& b = last ? in[0] : in[i + 1];
+    const double db = last ? d0 : plane.dot(b) + offset;
     if (da >= 0.0) out[n++] = a;
     if ((da >= 0.0) != (db >= 0.0)) out[n++] = a + (da / (da - db)) * (b - a);
+    da = db;
   }
   return n;
 }
@@ -766,6 +773,18 @@ Status checkQuery(const Box& box, const Pose& pose, const QuerySettings& setting
   return detail::checkManifoldSettings(settings);
 }
 
+// The narrowphase, filter and reduction over candidates, for a query that
+// checkQuery has accepted (collideBox checks once, not once per stage).
+void collideCheckedCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
+                              const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  const double scale = box.half_extents.norm();
+  const BoxNarrowphase narrowphase{pose, box.half_extents, settings.contact_distance, scale,
+                                   kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
+  QueryScratch::Impl& sc = scratch.impl();
+  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
+}
+
 }  // namespace
 
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
@@ -774,12 +793,7 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  const double scale = box.half_extents.norm();
-  const BoxNarrowphase narrowphase{pose, box.half_extents, settings.contact_distance, scale,
-                                   kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
-  QueryScratch::Impl& sc = scratch.impl();
-  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
-  detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
+  collideCheckedCandidates(box, pose, candidates, count, settings, scratch, contacts);
   return Status::ok();
 }
 
@@ -795,7 +809,8 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   s = gatherCandidates(instances, count, pose.translation - half, pose.translation + half, settings.key_mode, scratch,
                        sc.candidates);
   if (!s) return s;
-  return collideBoxCandidates(box, pose, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  collideCheckedCandidates(box, pose, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  return Status::ok();
 }
 
 Status collideBox(const TriangleMesh& mesh, const Box& box, const Pose& pose, const QuerySettings& settings,
