@@ -182,26 +182,43 @@ struct DeepestOver {
 };
 
 DeepestOver deepestOverTriangle(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, double flat) {
-  Vec3 pts[27];
-  double depth[27];
-  int count = 0;
-  const auto offer = [&](const Vec3& x) {
-    pts[count] = x;
-    depth[count++] = n.dot(v[0] - x);
+  DeepestOver out;
+  bool any = false;  // some point of the box lies over the triangle
+  const auto offer = [&](const Vec3& x, double depth) {
+    any = true;
+    if (depth > out.depth) out.depth = depth, out.where = x;
   };
+  // The 12 box edges share 8 corners (bit i of c: x_i = +e_i): each corner's
+  // values against the prism's sides and its depth, once, not once per edge
+  // end (the same expressions, so the same values).
+  Vec3 corner[8];
+  double side[8][3], corner_depth[8];
+  for (int c = 0; c < 8; ++c) {
+    for (int i = 0; i < 3; ++i) corner[c][i] = (c >> i) & 1 ? e[i] : -e[i];
+    for (int s = 0; s < 3; ++s) side[c][s] = m[s].dot(corner[c] - v[s]);
+    corner_depth[c] = n.dot(v[0] - corner[c]);
+  }
   for (int i = 0; i < 3; ++i) {  // the 4 box edges along u_i (corners are their ends)
     const int j = (i + 1) % 3, k = (i + 2) % 3;
     for (int c = 0; c < 4; ++c) {
-      Vec3 a, b;
-      a[j] = b[j] = (c & 1) ? e[j] : -e[j];
-      a[k] = b[k] = (c & 2) ? e[k] : -e[k];
-      a[i] = -e[i];
-      b[i] = e[i];
+      const int ca = ((c & 1) << j) | (((c >> 1) & 1) << k), cb = ca | (1 << i);
       double lo = 0.0, hi = 1.0;
-      for (int s = 0; s < 3 && lo <= hi; ++s) clipInterval(m[s].dot(a - v[s]), m[s].dot(b - v[s]), lo, hi);
+      for (int s = 0; s < 3 && lo <= hi; ++s) clipInterval(side[ca][s], side[cb][s], lo, hi);
       if (lo > hi) continue;
-      offer(a + lo * (b - a));
-      offer(a + hi * (b - a));
+      const Vec3& a = corner[ca];
+      const Vec3 ab = corner[cb] - a;
+      // An end that no side clipped is its corner (a + 1 (b - a) == b: the
+      // edge runs from -e_i to e_i), whose depth is known.
+      for (const double t : {lo, hi}) {
+        if (t == 0.0 || t == 1.0) {
+          const int end = t == 0.0 ? ca : cb;
+          any = true;
+          if (corner_depth[end] > out.depth) out.depth = corner_depth[end], out.where = a + t * ab;
+        } else {
+          const Vec3 x = a + t * ab;
+          offer(x, n.dot(v[0] - x));
+        }
+      }
     }
   }
   for (int k = 0; k < 3; ++k) {  // the prism's edges through the box's faces
@@ -217,12 +234,12 @@ DeepestOver deepestOverTriangle(const Vec3 v[3], const Vec3& n, const Vec3 m[3],
       hi = std::min(hi, std::max(s0, s1));
       empty = lo > hi;
     }
-    if (!empty) offer(v[k] + lo * n);  // lowest point of the line inside the box
+    if (!empty) {  // lowest point of the line inside the box
+      const Vec3 x = v[k] + lo * n;
+      offer(x, n.dot(v[0] - x));
+    }
   }
-  DeepestOver out;
-  for (int c = 0; c < count; ++c)
-    if (depth[c] > out.depth) out.depth = depth[c], out.where = pts[c];
-  if (count == 0) return out;
+  if (!any) return out;
   for (int k = 0; k < 3; ++k)
     if (m[k].dot(out.where - v[k]) <= flat * m[k].norm()) out.mask |= 1 << k;
   return out;
