@@ -75,6 +75,7 @@
 #include "meshcontact/triangle.h"
 
 #include "capsule_segment.h"
+#include "gather.h"
 #include "manifold_reduction.h"
 #include "scaled_edges.h"
 #include "scratch.h"
@@ -555,7 +556,9 @@ struct BoxNarrowphase {
     Vec3 v[3];
     for (int k = 0; k < 3; ++k) v[k] = pose.applyInverse(tri.vertices[k]);
     // The box's face axes first: the cheapest rejection of the midphase's
-    // candidates (their boxes overlap the box's query-frame bounds only).
+    // candidates (collideBox's midphase drops those whose bounds the box's
+    // faces separate, but the triangle itself may be separated where its
+    // bounds are not).
     Vec3 lo = v[0].cwiseMin(v[1]).cwiseMin(v[2]), hi = v[0].cwiseMax(v[1]).cwiseMax(v[2]);
     const double face_gap = std::max((lo - e).maxCoeff(), (-hi - e).maxCoeff());
     if (face_gap > reach()) {
@@ -790,13 +793,16 @@ Status checkQuery(const Box& box, const Pose& pose, const QuerySettings& setting
   return detail::checkManifoldSettings(settings);
 }
 
+BoxNarrowphase makeNarrowphase(const Box& box, const Pose& pose, const QuerySettings& settings) {
+  const double scale = box.half_extents.norm();
+  return {pose, box.half_extents, settings.contact_distance, scale,
+          kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
+}
+
 // The narrowphase, filter and reduction over candidates, for a query that
 // checkQuery has accepted (collideBox checks once, not once per stage).
-void collideCheckedCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
-                              const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
-  const double scale = box.half_extents.norm();
-  const BoxNarrowphase narrowphase{pose, box.half_extents, settings.contact_distance, scale,
-                                   kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
+void collideChecked(const BoxNarrowphase& narrowphase, const CandidateTriangle* candidates, std::size_t count,
+                    const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
   QueryScratch::Impl& sc = scratch.impl();
   detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
   detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
@@ -810,7 +816,7 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  collideCheckedCandidates(box, pose, candidates, count, settings, scratch, contacts);
+  collideChecked(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
   return Status::ok();
 }
 
@@ -820,13 +826,18 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  // The rotated box's bounds, inflated by the contact distance.
-  const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
+  const BoxNarrowphase narrowphase = makeNarrowphase(box, pose, settings);
   QueryScratch::Impl& sc = scratch.impl();
-  s = gatherCandidates(instances, count, pose.translation - half, pose.translation + half, settings.key_mode, scratch,
-                       sc.candidates);
+  if (settings.trace) {  // the trace lists every triangle of the rotated box's bounds, with its verdict
+    const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
+    s = gatherCandidates(instances, count, pose.translation - half, pose.translation + half, settings.key_mode,
+                         scratch, sc.candidates);
+  } else {  // without the triangles whose bounds the box's faces hold beyond reach
+    s = detail::gatherCandidatesNearBox(instances, count, pose, box.half_extents + Vec3::Constant(narrowphase.reach()),
+                                        settings.key_mode, scratch, sc.candidates);
+  }
   if (!s) return s;
-  collideCheckedCandidates(box, pose, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  collideChecked(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
   return Status::ok();
 }
 

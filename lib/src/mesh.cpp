@@ -313,6 +313,83 @@ struct LeafNearSphere {
   }
 };
 
+// The lanes whose box an oriented box may reach (rotation R, centre t, half
+// extents h; mesh frame), as bits: a lane is dropped when the box's face
+// normals u_i (the columns of R) separate it, |u_i.(c - t)| > h_i + r_i for
+// the lane box's centre c and its radius r_i = |u_i|.half along u_i
+// (Gottschalk's OBB test, the three axes of one box). The walk's query box
+// is the oriented box's bounds, which stand for the lane box's own axes; the
+// 9 edge crosses are left to the narrowphase. For a rotated box on a floor
+// those bounds take in ~3 times the leaves the box's faces can reach.
+//
+// Never a false reject: the lane box (outward-rounded float) holds its
+// triangle, and a separation must exceed a margin of 1e-8 times the
+// magnitudes involved, which covers the round-off of this test, of the box
+// narrowphase's (it moves vertices into the box's frame) and of a rotation
+// that validation accepts 1e-9 off orthonormal (mesh instances' poses).
+struct LeafNearOrientedBox {
+  Mat3 rotation;
+  Vec3 center, half;
+  double margin_base;  // |t|_1 + max h_i, for the margin
+  LeafNearOrientedBox(const Pose& pose, const Vec3& half_extents)
+      : rotation(pose.rotation),
+        center(pose.translation),
+        half(half_extents),
+        margin_base(pose.translation.cwiseAbs().sum() + half_extents.maxCoeff()) {}
+  static constexpr double kMargin = 1e-8;
+  unsigned operator()(const BvhNode& n) const {
+#if defined(__SSE2__)
+    const __m128d sign = _mm_set1_pd(-0.0), halfway = _mm_set1_pd(0.5);
+    const auto abs = [&](__m128d x) { return _mm_andnot_pd(sign, x); };
+    unsigned bits = 0;
+    for (int h = 0; h < 2; ++h) {  // lanes 0-1, lanes 2-3
+      __m128d d[3], r[3];
+      __m128d magnitude = _mm_set1_pd(margin_base);
+      for (int k = 0; k < 3; ++k) {
+        const __m128 lo4 = _mm_load_ps(n.lo[k]), hi4 = _mm_load_ps(n.hi[k]);
+        const __m128d lo = _mm_cvtps_pd(h == 0 ? lo4 : _mm_movehl_ps(lo4, lo4));
+        const __m128d hi = _mm_cvtps_pd(h == 0 ? hi4 : _mm_movehl_ps(hi4, hi4));
+        d[k] = _mm_sub_pd(_mm_mul_pd(halfway, _mm_add_pd(lo, hi)), _mm_set1_pd(center[k]));
+        r[k] = _mm_mul_pd(halfway, _mm_sub_pd(hi, lo));
+        magnitude = _mm_add_pd(magnitude, _mm_add_pd(abs(lo), abs(hi)));
+      }
+      const __m128d margin = _mm_mul_pd(_mm_set1_pd(kMargin), magnitude);
+      __m128d apart = _mm_setzero_pd();
+      for (int i = 0; i < 3; ++i) {
+        __m128d along = _mm_setzero_pd(), radius = _mm_set1_pd(half[i]);
+        for (int k = 0; k < 3; ++k) {
+          const __m128d u = _mm_set1_pd(rotation(k, i));
+          along = _mm_add_pd(along, _mm_mul_pd(u, d[k]));
+          radius = _mm_add_pd(radius, _mm_mul_pd(abs(u), r[k]));
+        }
+        apart = _mm_or_pd(apart, _mm_cmpgt_pd(_mm_sub_pd(abs(along), radius), margin));
+      }
+      bits |= static_cast<unsigned>(~_mm_movemask_pd(apart) & 3) << (2 * h);
+    }
+    return bits;
+#else
+    unsigned bits = 0;
+    for (int l = 0; l < 4; ++l) {
+      double d[3], r[3], magnitude = margin_base;
+      for (int k = 0; k < 3; ++k) {
+        const double lo = n.lo[k][l], hi = n.hi[k][l];
+        d[k] = 0.5 * (lo + hi) - center[k];
+        r[k] = 0.5 * (hi - lo);
+        magnitude += std::abs(lo) + std::abs(hi);
+      }
+      bool apart = false;
+      for (int i = 0; i < 3; ++i) {
+        double along = 0.0, radius = half[i];
+        for (int k = 0; k < 3; ++k) along += rotation(k, i) * d[k], radius += std::abs(rotation(k, i)) * r[k];
+        apart |= std::abs(along) - radius > kMargin * magnitude;
+      }
+      bits |= static_cast<unsigned>(!apart) << l;
+    }
+    return bits;
+#endif
+  }
+};
+
 // The query box [lo, hi] rounded outward to float, and the lanes of node n
 // whose boxes overlap it, as bits.
 #if defined(__SSE2__)
@@ -457,6 +534,14 @@ void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uin
                             std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
   walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), vertices_, out, queue);
+}
+
+void TriangleMesh::queryOrientedBox(const Pose& pose, const Vec3& half_extents, std::vector<std::uint32_t>& out,
+                                    std::vector<std::int32_t>& queue) const {
+  if (nodes_.empty()) return;
+  const Vec3 extent = pose.rotation.cwiseAbs() * half_extents;
+  walk(nodes_.data(), pose.translation - extent, pose.translation + extent, LeafNearOrientedBox(pose, half_extents),
+       prefetchIndices(), vertices_, out, queue);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,

@@ -2,6 +2,7 @@
 #include "meshcontact/query.h"
 
 #include "closest_point.h"
+#include "gather.h"
 #include "meshcontact/triangle.h"
 #include "scaled_edges.h"
 #include "scratch.h"
@@ -29,11 +30,20 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
 
 namespace {
 
+// An oriented box (query frame) that prunes a midphase query.
+struct OrientedBox {
+  Pose pose;
+  Vec3 half_extents;
+};
+
 // gatherCandidates, optionally pruned by a bounding sphere of the shape
 // (`bound`, query frame; the box [lo, hi] must contain it): leaves whose box
-// is farther than its radius are dropped (TriangleMesh::querySphere).
+// is farther than its radius are dropped (TriangleMesh::querySphere); or by
+// an oriented box (`box_bound`, likewise): leaves whose box its faces
+// separate are dropped (TriangleMesh::queryOrientedBox).
 Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi, const Sphere* bound,
-              KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
+              const OrientedBox* box_bound, KeyMode key_mode, QueryScratch& scratch,
+              std::vector<CandidateTriangle>& out) {
   out.clear();
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
@@ -83,6 +93,9 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     if (bound)
       mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,
                        sc.walk_queue);
+    else if (box_bound)
+      mesh.queryOrientedBox(identity ? box_bound->pose : pose.inverse() * box_bound->pose, box_bound->half_extents,
+                            sc.hits, sc.walk_queue);
     else
       mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
@@ -157,7 +170,16 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
 
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
-  return gather(instances, count, lo, hi, nullptr, key_mode, scratch, out);
+  return gather(instances, count, lo, hi, nullptr, nullptr, key_mode, scratch, out);
+}
+
+Status detail::gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Pose& box_pose,
+                                       const Vec3& half_extents, KeyMode key_mode, QueryScratch& scratch,
+                                       std::vector<CandidateTriangle>& out) {
+  const Vec3 extent = box_pose.rotation.cwiseAbs() * half_extents;
+  const OrientedBox box{box_pose, half_extents};
+  return gather(instances, count, box_pose.translation - extent, box_pose.translation + extent, nullptr, &box,
+                key_mode, scratch, out);
 }
 
 namespace {
@@ -355,7 +377,7 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
   const Status s = checkSphere(bound);
   if (!s) return s;
   const Vec3 extent = Vec3::Constant(bound.radius);
-  return gather(instances, count, bound.center - extent, bound.center + extent, &bound, key_mode, scratch, out);
+  return gather(instances, count, bound.center - extent, bound.center + extent, &bound, nullptr, key_mode, scratch, out);
 }
 
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
@@ -383,7 +405,7 @@ Status collideSphere(const MeshInstance* instances, std::size_t count, const Sph
   const Vec3 extent = Vec3::Constant(reach);
   QueryScratch::Impl& sc = scratch.impl();
   const Sphere bound{sphere.center, reach};
-  s = gather(instances, count, sphere.center - extent, sphere.center + extent, &bound, settings.key_mode, scratch,
+  s = gather(instances, count, sphere.center - extent, sphere.center + extent, &bound, nullptr, settings.key_mode, scratch,
              sc.candidates);
   if (!s) return s;
   sphereContacts(sphere, sc.candidates.data(), sc.candidates.size(), true, settings, scratch, contacts);

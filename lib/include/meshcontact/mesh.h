@@ -136,6 +136,16 @@ class TriangleMesh {
   /// sphere). Same order and guarantees as queryBox.
   void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                    std::vector<std::int32_t>& queue) const;
+  /// Triangles whose bounding box the box pose * [-half_extents,
+  /// half_extents] may reach (mesh frame; rotation as Pose's validation
+  /// accepts it): queryBox on that box's bounds, each leaf's box also tested
+  /// against the box's three face normals, so that a triangle whose box
+  /// only overlaps a corner of a rotated box's bounds is not reported. Never
+  /// drops a triangle the box touches: a separation counts only beyond a
+  /// margin of 1e-8 of the coordinates' magnitudes. Same order and
+  /// guarantees as queryBox.
+  void queryOrientedBox(const Pose& pose, const Vec3& half_extents, std::vector<std::uint32_t>& out,
+                        std::vector<std::int32_t>& queue) const;
   /// Exactly the triangles querySphere reports, handed to `visitor` one at a time
   /// until it returns true: for a search that ends at its first hit
   /// (collision checking), where gathering every triangle first would pay
