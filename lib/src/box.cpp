@@ -801,8 +801,9 @@ BoxNarrowphase makeNarrowphase(const Box& box, const Pose& pose, const QuerySett
 
 // The narrowphase, filter and reduction over candidates, for a query that
 // checkQuery has accepted (collideBox checks once, not once per stage).
-void collideChecked(const BoxNarrowphase& narrowphase, const CandidateTriangle* candidates, std::size_t count,
-                    const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+void collideCheckedCandidates(const BoxNarrowphase& narrowphase, const CandidateTriangle* candidates,
+                              std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                              std::vector<Contact>& contacts) {
   QueryScratch::Impl& sc = scratch.impl();
   detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
   detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
@@ -816,7 +817,7 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  collideChecked(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
+  collideCheckedCandidates(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
   return Status::ok();
 }
 
@@ -828,16 +829,17 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   if (!s) return s;
   const BoxNarrowphase narrowphase = makeNarrowphase(box, pose, settings);
   QueryScratch::Impl& sc = scratch.impl();
-  if (settings.trace) {  // the trace lists every triangle of the rotated box's bounds, with its verdict
-    const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
-    s = gatherCandidates(instances, count, pose.translation - half, pose.translation + half, settings.key_mode,
-                         scratch, sc.candidates);
-  } else {  // without the triangles whose bounds the box's faces hold beyond reach
-    s = detail::gatherCandidatesNearBox(instances, count, pose, box.half_extents + Vec3::Constant(narrowphase.reach()),
-                                        settings.key_mode, scratch, sc.candidates);
-  }
+  // The rotated box's bounds, inflated by the contact distance.
+  const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
+  const Vec3 lo = pose.translation - half, hi = pose.translation + half;
+  if (settings.trace)  // the trace lists every triangle of the bounds, with its verdict
+    s = gatherCandidates(instances, count, lo, hi, settings.key_mode, scratch, sc.candidates);
+  else  // without those whose bounds the box's faces hold beyond the narrowphase's reach (its first test)
+    s = detail::gatherCandidatesNearBox(instances, count, lo, hi, pose,
+                                        box.half_extents + Vec3::Constant(narrowphase.reach()), settings.key_mode,
+                                        scratch, sc.candidates);
   if (!s) return s;
-  collideChecked(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  collideCheckedCandidates(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
   return Status::ok();
 }
 

@@ -8,15 +8,18 @@
 
 namespace meshcontact::detail {
 
-/// gatherCandidates on the bounds of the box pose * [-half_extents,
-/// half_extents] (query frame), each mesh walked by
-/// TriangleMesh::queryOrientedBox: no triangle the box reaches is dropped,
-/// and most of those whose bounds only overlap the corners of a rotated
-/// box's bounds are. Same order as gatherCandidates; position keys are
-/// numbered over this smaller set (equal exactly where gatherCandidates'
-/// are, not the same numbers). Errors: those of gatherCandidates.
-Status gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Pose& box_pose,
-                               const Vec3& half_extents, KeyMode key_mode, QueryScratch& scratch,
-                               std::vector<CandidateTriangle>& out);
+/// gatherCandidates(lo, hi) without the triangles whose bounding box the
+/// box box_pose * [-half_extents, half_extents] (query frame; the caller's
+/// validated box, not checked here: a NaN axis separates nothing) cannot reach:
+/// each mesh is walked by TriangleMesh::queryOrientedBox, the box moved into
+/// the mesh's frame and, for a posed instance, inflated by 1e-8 of the two
+/// poses' translations (the round-off of moving between the frames). No
+/// triangle the box touches is dropped. Same order as gatherCandidates;
+/// position keys are numbered over this smaller set (equal exactly where
+/// gatherCandidates' are, not the same numbers). Errors: those of
+/// gatherCandidates.
+Status gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                               const Pose& box_pose, const Vec3& half_extents, KeyMode key_mode,
+                               QueryScratch& scratch, std::vector<CandidateTriangle>& out);
 
 }  // namespace meshcontact::detail

@@ -315,18 +315,19 @@ struct LeafNearSphere {
 
 // The lanes whose box an oriented box may reach (rotation R, centre t, half
 // extents h; mesh frame), as bits: a lane is dropped when the box's face
-// normals u_i (the columns of R) separate it, |u_i.(c - t)| > h_i + r_i for
-// the lane box's centre c and its radius r_i = |u_i|.half along u_i
-// (Gottschalk's OBB test, the three axes of one box). The walk's query box
-// is the oriented box's bounds, which stand for the lane box's own axes; the
-// 9 edge crosses are left to the narrowphase. For a rotated box on a floor
-// those bounds take in ~3 times the leaves the box's faces can reach.
+// normals u_i (the columns of R, as given) separate it, |u_i.(c - t)| >
+// h_i + r_i for the lane box's centre c and its radius r_i = |u_i|.half
+// along u_i (Gottschalk's OBB test, the three axes of one box). The walk's
+// query box stands for the lane box's own axes; the 9 edge-edge axes are
+// left to the narrowphase. For a rotated box on a floor its bounds take in
+// ~2 times the leaves its faces can reach.
 //
 // Never a false reject: the lane box (outward-rounded float) holds its
-// triangle, and a separation must exceed a margin of 1e-8 times the
-// magnitudes involved, which covers the round-off of this test, of the box
-// narrowphase's (it moves vertices into the box's frame) and of a rotation
-// that validation accepts 1e-9 off orthonormal (mesh instances' poses).
+// triangle, so its projection holds the triangle's, and a separation must
+// exceed a margin of 1e-8 times |t|_1 + max h_i + the lane box's |lo| + |hi|:
+// far more than this test's round-off and that of a caller who computes
+// the same projection of the triangle's corners in the same frame (the box
+// narrowphase's face test).
 struct LeafNearOrientedBox {
   Mat3 rotation;
   Vec3 center, half;
@@ -536,12 +537,10 @@ void TriangleMesh::queryBox(const Vec3& lo, const Vec3& hi, std::vector<std::uin
   walk(nodes_.data(), lo, hi, AnyLeaf{}, prefetchIndices(), vertices_, out, queue);
 }
 
-void TriangleMesh::queryOrientedBox(const Pose& pose, const Vec3& half_extents, std::vector<std::uint32_t>& out,
-                                    std::vector<std::int32_t>& queue) const {
+void TriangleMesh::queryOrientedBox(const Vec3& lo, const Vec3& hi, const Pose& pose, const Vec3& half_extents,
+                                    std::vector<std::uint32_t>& out, std::vector<std::int32_t>& queue) const {
   if (nodes_.empty()) return;
-  const Vec3 extent = pose.rotation.cwiseAbs() * half_extents;
-  walk(nodes_.data(), pose.translation - extent, pose.translation + extent, LeafNearOrientedBox(pose, half_extents),
-       prefetchIndices(), vertices_, out, queue);
+  walk(nodes_.data(), lo, hi, LeafNearOrientedBox(pose, half_extents), prefetchIndices(), vertices_, out, queue);
 }
 
 void TriangleMesh::querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,

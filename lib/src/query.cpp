@@ -93,9 +93,22 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     if (bound)
       mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,
                        sc.walk_queue);
+    else if (box_bound && identity)
+      mesh.queryOrientedBox(local_lo, local_hi, box_bound->pose, box_bound->half_extents, sc.hits, sc.walk_queue);
     else if (box_bound)
-      mesh.queryOrientedBox(identity ? box_bound->pose : pose.inverse() * box_bound->pose, box_bound->half_extents,
-                            sc.hits, sc.walk_queue);
+      // The box in the mesh's frame (translations subtracted first), inflated
+      // by 1e-8 of both translations: the leaf test's own margin scales with
+      // mesh-frame magnitudes, but the narrowphase sees the corners moved
+      // into the query frame, rounded on the scale of the instance's
+      // translation, and a rotation validation accepts 1e-9 off orthonormal
+      // is not quite inverted by its transpose.
+      mesh.queryOrientedBox(
+          local_lo, local_hi,
+          {pose.rotation.transpose() * box_bound->pose.rotation, pose.applyInverse(box_bound->pose.translation)},
+          box_bound->half_extents +
+              Vec3::Constant(1e-8 * (pose.translation.cwiseAbs().sum() +
+                                     box_bound->pose.translation.cwiseAbs().sum())),
+          sc.hits, sc.walk_queue);
     else
       mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
@@ -173,13 +186,11 @@ Status gatherCandidates(const MeshInstance* instances, std::size_t count, const 
   return gather(instances, count, lo, hi, nullptr, nullptr, key_mode, scratch, out);
 }
 
-Status detail::gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Pose& box_pose,
-                                       const Vec3& half_extents, KeyMode key_mode, QueryScratch& scratch,
-                                       std::vector<CandidateTriangle>& out) {
-  const Vec3 extent = box_pose.rotation.cwiseAbs() * half_extents;
+Status detail::gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Vec3& lo,
+                                       const Vec3& hi, const Pose& box_pose, const Vec3& half_extents,
+                                       KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
   const OrientedBox box{box_pose, half_extents};
-  return gather(instances, count, box_pose.translation - extent, box_pose.translation + extent, nullptr, &box,
-                key_mode, scratch, out);
+  return gather(instances, count, lo, hi, nullptr, &box, key_mode, scratch, out);
 }
 
 namespace {

@@ -136,16 +136,20 @@ class TriangleMesh {
   /// sphere). Same order and guarantees as queryBox.
   void querySphere(const Vec3& center, double radius, std::vector<std::uint32_t>& out,
                    std::vector<std::int32_t>& queue) const;
-  /// Triangles whose bounding box the box pose * [-half_extents,
-  /// half_extents] may reach (mesh frame; rotation as Pose's validation
-  /// accepts it): queryBox on that box's bounds, each leaf's box also tested
-  /// against the box's three face normals, so that a triangle whose box
-  /// only overlaps a corner of a rotated box's bounds is not reported. Never
-  /// drops a triangle the box touches: a separation counts only beyond a
-  /// margin of 1e-8 of the coordinates' magnitudes. Same order and
-  /// guarantees as queryBox.
-  void queryOrientedBox(const Pose& pose, const Vec3& half_extents, std::vector<std::uint32_t>& out,
-                        std::vector<std::int32_t>& queue) const;
+  /// queryBox(lo, hi) without the triangles whose bounding box the oriented
+  /// box pose * [-half_extents, half_extents] cannot reach (mesh frame): a
+  /// leaf is dropped when one of the box's face normals (the columns of
+  /// pose.rotation, used as given) separates the leaf's box from it by more
+  /// than a margin of 1e-8 of |pose.translation|_1 + max(half_extents) +
+  /// the sum of |lo| and |hi| of the leaf's box (its round-off, many times
+  /// over). So no triangle of queryBox(lo, hi) that the oriented box
+  /// touches is dropped, and most of those whose bounds only overlap the
+  /// corners of a rotated box's bounds are (the 9 edge-edge axes are left
+  /// to the caller). A caller whose own round-off is larger (another frame)
+  /// inflates half_extents. Not validated: pose and half_extents must be
+  /// finite, half_extents >= 0. Same order and guarantees as queryBox.
+  void queryOrientedBox(const Vec3& lo, const Vec3& hi, const Pose& pose, const Vec3& half_extents,
+                        std::vector<std::uint32_t>& out, std::vector<std::int32_t>& queue) const;
   /// Exactly the triangles querySphere reports, handed to `visitor` one at a time
   /// until it returns true: for a search that ends at its first hit
   /// (collision checking), where gathering every triangle first would pay
