@@ -799,16 +799,6 @@ BoxNarrowphase makeNarrowphase(const Box& box, const Pose& pose, const QuerySett
           kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
 }
 
-// The narrowphase, filter and reduction over candidates, for a query that
-// checkQuery has accepted (collideBox checks once, not once per stage).
-void collideCheckedCandidates(const BoxNarrowphase& narrowphase, const CandidateTriangle* candidates,
-                              std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                              std::vector<Contact>& contacts) {
-  QueryScratch::Impl& sc = scratch.impl();
-  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
-  detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
-}
-
 }  // namespace
 
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
@@ -817,7 +807,7 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  collideCheckedCandidates(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
+  detail::manifoldContacts(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
   return Status::ok();
 }
 
@@ -839,7 +829,8 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
                                         box.half_extents + Vec3::Constant(narrowphase.reach()), settings.key_mode,
                                         scratch, sc.candidates);
   if (!s) return s;
-  collideCheckedCandidates(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  // Checked once above, not again per stage.
+  detail::manifoldContacts(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
   return Status::ok();
 }
 

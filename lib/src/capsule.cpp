@@ -201,16 +201,6 @@ Status checkQuery(const Capsule& capsule, const Pose& pose, const QuerySettings&
   return detail::checkManifoldSettings(settings);
 }
 
-// The narrowphase, filter and reduction over candidates, for a query that
-// checkQuery has accepted (collideCapsule checks once, not once per stage).
-void collideCheckedCandidates(const CapsuleNarrowphase& narrowphase, const CandidateTriangle* candidates,
-                              std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                              std::vector<Contact>& contacts) {
-  QueryScratch::Impl& sc = scratch.impl();
-  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
-  detail::reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
-}
-
 }  // namespace
 
 Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const CandidateTriangle* candidates,
@@ -220,7 +210,7 @@ Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const 
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(capsule, pose, settings);
   if (!s) return s;
-  collideCheckedCandidates(makeNarrowphase(capsule, pose, settings.contact_distance), candidates, count, settings,
+  detail::manifoldContacts(makeNarrowphase(capsule, pose, settings.contact_distance), candidates, count, settings,
                            scratch, contacts);
   return Status::ok();
 }
@@ -237,7 +227,8 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
   s = gatherCandidates(instances, count, np.p0.cwiseMin(np.p1) - reach, np.p0.cwiseMax(np.p1) + reach,
                        settings.key_mode, scratch, sc.candidates);
   if (!s) return s;
-  collideCheckedCandidates(np, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  // Checked once above, not again per stage.
+  detail::manifoldContacts(np, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
   return Status::ok();
 }
 

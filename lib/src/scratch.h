@@ -36,4 +36,20 @@ struct QueryScratch::Impl {
   detail::ManifoldScratch manifold;
 };
 
+namespace detail {
+
+/// After the midphase, for a query already validated: the narrowphase over
+/// the candidates, the voided-features filter and the manifold reduction
+/// (the capsule's and the box's pipeline; `narrowphase.scale` is the
+/// shape's size for the reduction's tolerances).
+template <class Narrowphase>
+void manifoldContacts(const Narrowphase& narrowphase, const CandidateTriangle* candidates, std::size_t count,
+                      const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  QueryScratch::Impl& sc = scratch.impl();
+  generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
+}
+
+}  // namespace detail
+
 }  // namespace meshcontact
