@@ -188,7 +188,7 @@ TEST(GatherNearBox, KeepsTheTrianglesUnderABoxRestingOnTheFloor) {
     if (i % 4 == 0) box.rotation = Mat3::Identity();  // lying flat: a whole face on the floor
     if (i % 4 == 1) box.rotation = testing::rotationAtValidationTolerance(box.rotation);
     const Vec3 h(rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6));
-    const double cd = i % 2 ? 0.0 : 0.01;
+    const double cd = i % 5 < 2 ? 0.01 : 0.0;  // independent of the rotation and lift cycles
     // Exactly on the floor with no contact distance, the bounds themselves
     // may round to just above it and take in nothing (then there is nothing
     // to keep); every other box reaches the floor.
