@@ -714,16 +714,17 @@ struct BoxNarrowphase {
       Axis& ax = axes[a];
       if (ax.length == 0.0) ax.length = std::sqrt(ax.L.squaredNorm());
       const double sign_n = ax.L.dot(n) / ax.length;
-      const double pens[2] = {(ax.tmax + ax.rb) / ax.length, (ax.rb - ax.tmin) / ax.length};  // push along +L, -L
       for (int o = 0; o < 2; ++o) {
         const double along_n = o == 0 ? sign_n : -sign_n;
         if (along_n < -1e-9) continue;  // would point to the triangle's back
+        // The push along +L or -L, divided only for a direction that counts.
+        const double pen = o == 0 ? (ax.tmax + ax.rb) / ax.length : (ax.rb - ax.tmin) / ax.length;
         const double bias = best.kind == 0 ? n_bias : kFaceBias;
         const double margin =
             ax.kind > best.kind && std::isfinite(best.pen) ? bias * std::abs(best.pen) + 1e-6 * scale : 0.0;
-        if (pens[o] < best.pen - margin) {
+        if (pen < best.pen - margin) {
           const Vec3 L = ax.L / ax.length;
-          best = {o == 0 ? L : Vec3(-L), pens[o], ax.kind, ax.box_axis, ax.edge};
+          best = {o == 0 ? L : Vec3(-L), pen, ax.kind, ax.box_axis, ax.edge};
         }
       }
     }
