@@ -53,16 +53,7 @@ Pose randomPose(scenes::Rng& rng, const Vec3& lo, const Vec3& hi) {
 void expectSubsetKeepingTouched(const std::vector<CandidateTriangle>& all, const std::vector<CandidateTriangle>& near,
                                 const Pose& box, const Vec3& h, double slack, std::size_t& kept,
                                 std::size_t& pruned) {
-  std::size_t j = 0;
-  for (const CandidateTriangle& c : near) {
-    while (j < all.size() && !(all[j].mesh == c.mesh && all[j].triangle == c.triangle)) ++j;
-    ASSERT_LT(j, all.size()) << "triangle " << c.mesh << ":" << c.triangle << " not in the box's bounds, or out of order";
-    for (int k = 0; k < 3; ++k) {
-      EXPECT_EQ(c.vertices[k], all[j].vertices[k]);
-      EXPECT_EQ(c.keys[k], all[j].keys[k]);
-    }
-    ++j;
-  }
+  ASSERT_NO_FATAL_FAILURE(testing::expectSubsequence(all, near, true));
   std::size_t n = 0;
   for (const CandidateTriangle& c : all) {
     const bool in_near = n < near.size() && near[n].mesh == c.mesh && near[n].triangle == c.triangle;
@@ -123,13 +114,9 @@ TEST(GatherNearBox, SubsetOfTheBoundsQueryKeepingEveryTouchedTriangle) {
                                                       mode, scratch, near)
                           .isOk());
           if (mode == KeyMode::kVertexIndex) {
-            expectSubsetKeepingTouched(all, near, box, q.half, slack, kept, pruned);
-          } else {  // position keys are numbered per query: the same triangles, other numbers
-            std::size_t j = 0;
-            for (const CandidateTriangle& c : near) {
-              while (j < all.size() && !(all[j].mesh == c.mesh && all[j].triangle == c.triangle)) ++j;
-              ASSERT_LT(j, all.size());
-            }
+            ASSERT_NO_FATAL_FAILURE(expectSubsetKeepingTouched(all, near, box, q.half, slack, kept, pruned));
+          } else {  // position keys are numbered per query: the same triangles and corners, other numbers
+            ASSERT_NO_FATAL_FAILURE(testing::expectSubsequence(all, near, false));
           }
         }
       }
@@ -200,7 +187,7 @@ TEST(GatherNearBox, KeepsTheTrianglesUnderABoxRestingOnTheFloor) {
     ASSERT_TRUE(
         detail::gatherCandidatesNearBox(&instance, 1, q.lo, q.hi, box, q.half, KeyMode::kVertexIndex, scratch, near)
             .isOk());
-    expectSubsetKeepingTouched(all, near, box, q.half, 1e-12, kept, pruned);
+    ASSERT_NO_FATAL_FAILURE(expectSubsetKeepingTouched(all, near, box, q.half, 1e-12, kept, pruned));
     bool touches = false;
     for (const CandidateTriangle& c : all) touches |= boxTouchesTriangle(box, q.half, c.vertices, 1e-12);
     if (must_touch) {

@@ -36,16 +36,7 @@ TEST(GatherNearSphere, SubsetOfTheBoxQueryKeepingEveryTouchedTriangle) {
                         .isOk());
         ASSERT_TRUE(gatherCandidatesNearSphere(&instance, 1, bound, KeyMode::kVertexIndex, scratch, ball).isOk());
         // Same order: ball is a subsequence of box, with the same vertices and keys.
-        std::size_t j = 0;
-        for (const CandidateTriangle& c : ball) {
-          while (j < box.size() && box[j].triangle != c.triangle) ++j;
-          ASSERT_LT(j, box.size()) << "triangle " << c.triangle << " not in the box query, or out of order";
-          for (int k = 0; k < 3; ++k) {
-            EXPECT_EQ(c.vertices[k], box[j].vertices[k]);
-            EXPECT_EQ(c.keys[k], box[j].keys[k]);
-          }
-          ++j;
-        }
+        ASSERT_NO_FATAL_FAILURE(testing::expectSubsequence(box, ball, true));
         // Every triangle of the box query that the ball touches is kept.
         std::size_t b = 0;
         for (const CandidateTriangle& c : box) {

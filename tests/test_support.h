@@ -74,6 +74,29 @@ inline TriangleMesh buildMesh(const scenes::SceneMesh& m) {
   return mesh;
 }
 
+/// `some` is a subsequence of `all` (the same order; candidates matched by
+/// mesh and triangle) with the same vertices, and the same keys when
+/// `same_keys` (index keys; position keys are numbered per query, so two
+/// gathers of different sets agree only on which corners are equal). For a
+/// pruned midphase against the unpruned one; wrap the call in
+/// ASSERT_NO_FATAL_FAILURE.
+inline void expectSubsequence(const std::vector<CandidateTriangle>& all, const std::vector<CandidateTriangle>& some,
+                              bool same_keys) {
+  std::size_t j = 0;
+  for (const CandidateTriangle& c : some) {
+    while (j < all.size() && !(all[j].mesh == c.mesh && all[j].triangle == c.triangle)) ++j;
+    ASSERT_LT(j, all.size()) << "triangle " << c.mesh << ":" << c.triangle
+                             << " not in the unpruned query, or out of order";
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(c.vertices[k], all[j].vertices[k]);
+      if (same_keys) {
+        EXPECT_EQ(c.keys[k], all[j].keys[k]);
+      }
+    }
+    ++j;
+  }
+}
+
 /// Contacts compared by geometry only (not by mesh / triangle index), in a
 /// canonical order: used to compare a welded mesh with its pieces.
 struct Geometric {
