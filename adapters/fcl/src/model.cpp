@@ -160,77 +160,120 @@ template <class BV>
   return true;
 }
 
+// Whether the query volume reaches node bv: the ball first (every query
+// has one), then, for non-ball queries, the axis-aligned bounds.
 template <class BV>
-Status gatherTyped(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pose& to_query, std::uint32_t mesh_index,
-                   std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor) {
+[[gnu::always_inline]] inline bool reaches(const BV& bv, const QueryVolume& q) {
+  return ballOverlaps(bv, q.center, q.radius) && (q.ball_only || boundsOverlap(bv, q));
+}
+
+// Collision checking: depth first, the child nearer the query's centre
+// first, each leaf's candidate handed to the visitor at once (the first
+// triangle in contact, any one, ends the check: the answer does not depend
+// on the order, and contact is likeliest near the centre).
+template <class BV>
+Status visitNearestFirst(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pose& to_query,
+                         std::uint32_t mesh_index, std::vector<int>& stack, std::vector<CandidateTriangle>& out,
+                         LeafVisitor& visitor) {
   const bool identity = to_query.isIdentity();
-  // Contacts: breadth first, `stack` used as a queue. The walk is bound by
-  // memory latency (256-byte nodes), and a node is reached a whole level
-  // after its prefetch was issued, so the fetches overlap instead of
-  // stalling one by one. The candidates' order does not change the contacts
-  // (the filter's result is independent of it). Collision checking: depth
-  // first, nearest child first, to stop at a hit early.
   stack.clear();
   stack.push_back(0);
-  std::size_t head = 0;
-  // Contacts: the leaves' triangle ids, in the queue's consumed slots
-  // (leaves <= head at every step, so no pending node is overwritten).
-  std::size_t leaves = 0;
-  while (visitor ? !stack.empty() : head < stack.size()) {
-    int id;
-    if (visitor) {
-      id = stack.back();
-      stack.pop_back();
-    } else {
-      id = stack[head++];
-    }
+  while (!stack.empty()) {
+    const int id = stack.back();
+    stack.pop_back();
     const ::fcl::BVNode<BV>& node = m.getBV(id);
-    if (!ballOverlaps(node.bv, q.center, q.radius)) continue;
-    if (!q.ball_only && !boundsOverlap(node.bv, q)) continue;
+    if (!reaches(node.bv, q)) continue;
     if (!isLeaf(node)) {
-      // The children are adjacent and large (an OBBRSS node is 256 bytes):
-      // start fetching both before they are reached.
+      // The children are adjacent and large (an OBBRSS node is 256 bytes);
+      // their centres are read now, the rest of them when they are tested.
       const char* first = reinterpret_cast<const char*>(&m.getBV(leftChild(node)));
       for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
       int first_child = leftChild(node), second_child = rightChild(node);
-      if (visitor) {
-        // Collision checking stops at the first triangle in contact (any
-        // one: the answer does not depend on the order): the child nearer
-        // the query's centre first, where contact is likeliest.
-        const double dl = (nodeCenter(m.getBV(first_child).bv) - q.center).squaredNorm();
-        const double dr = (nodeCenter(m.getBV(second_child).bv) - q.center).squaredNorm();
-        if (dr < dl) std::swap(first_child, second_child);
-      }
+      const double dl = (nodeCenter(m.getBV(first_child).bv) - q.center).squaredNorm();
+      const double dr = (nodeCenter(m.getBV(second_child).bv) - q.center).squaredNorm();
+      if (dr < dl) std::swap(first_child, second_child);
       stack.push_back(second_child);
       stack.push_back(first_child);
       continue;
     }
     const int t = primitiveId(node);
-    if (visitor) {
-      const std::size_t before = out.size();
-      if (!appendTriangle(m, t, q, to_query, identity, mesh_index, out)) return indexError(m, t);
-      if (out.size() > before && visitor->visit(out.back())) break;
+    const std::size_t before = out.size();
+    if (!appendTriangle(m, t, q, to_query, identity, mesh_index, out)) return indexError(m, t);
+    if (out.size() > before && visitor.visit(out.back())) break;
+  }
+  return Status::ok();
+}
+
+// Contacts: every leaf the volume reaches, breadth first, `queue` holding
+// the nodes known to be reached. The walk is bound by memory latency
+// (256-byte nodes): a reached node's children are prefetched when it is
+// found reached and tested a whole level later, when it is dequeued, so the
+// fetches overlap instead of stalling one by one. Both children are tested
+// together and enqueued without a branch on the outcome (the queue's tail
+// moves by the test's result): about half the tests fail, unpredictably
+// (sphere contacts along fcl_bench's paths: 2-3% faster than one branch per
+// dequeued node). The candidates are those and in the order that testing
+// each node when dequeued gives; their order does not change the contacts
+// anyway (the filter's result is independent of it).
+template <class BV>
+Status gatherBreadthFirst(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, const Pose& to_query,
+                          std::uint32_t mesh_index, std::vector<int>& queue, std::vector<CandidateTriangle>& out) {
+  const bool identity = to_query.isIdentity();
+  // Reached children are written at the tail, two slots at a time: room for
+  // both is made before each pair (the queue never holds more than the
+  // model's nodes).
+  const auto prefetchChildren = [&m](const ::fcl::BVNode<BV>& node) {
+    if (isLeaf(node)) return;
+    const char* first = reinterpret_cast<const char*>(&m.getBV(leftChild(node)));
+    for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
+  };
+  if (queue.size() < 2) queue.resize(64);
+  std::size_t head = 0, tail = 0;
+  if (reaches(m.getBV(0).bv, q)) {
+    queue[tail++] = 0;
+    prefetchChildren(m.getBV(0));
+  }
+  // The leaves' triangle ids, in the queue's consumed slots (leaves <= head
+  // at every step, so no pending node is overwritten).
+  std::size_t leaves = 0;
+  while (head < tail) {
+    const ::fcl::BVNode<BV>& node = m.getBV(queue[head++]);
+    if (isLeaf(node)) {
+      // A leaf's triangle record and then its vertices are two more
+      // dependent fetches (the model is walked cold, like its nodes). Read
+      // there and then, every leaf would wait for both in turn; gathered
+      // after the walk, all the leaves' fetches are in flight together: the
+      // triangle records now, the vertices in the pass below. (8-12% of a
+      // sphere, capsule or box query on the 100k-triangle meshes of
+      // benchmarks/fcl_bench.cpp.)
+      const int t = primitiveId(node);
+      __builtin_prefetch(corners(m, t));
+      queue[leaves++] = t;
       continue;
     }
-    // A leaf's triangle record and then its vertices are two more dependent
-    // fetches (the model is walked cold, like its nodes). Read there and
-    // then, every leaf would wait for both in turn; gathered after the walk,
-    // all the leaves' fetches are in flight together: the triangle records
-    // now, the vertices in the pass below. (8-12% of a sphere, capsule or
-    // box query on the 100k-triangle meshes of benchmarks/fcl_bench.cpp.)
-    __builtin_prefetch(corners(m, t));
-    stack[leaves++] = t;
+    if (tail + 2 > queue.size()) queue.resize(2 * queue.size());
+    // The same queue order as testing each child when dequeued: the
+    // right child first.
+    const int right = rightChild(node), left = leftChild(node);
+    const ::fcl::BVNode<BV>& right_node = m.getBV(right);
+    const ::fcl::BVNode<BV>& left_node = m.getBV(left);
+    const bool right_reached = reaches(right_node.bv, q), left_reached = reaches(left_node.bv, q);
+    queue[tail] = right;
+    tail += right_reached;
+    queue[tail] = left;
+    tail += left_reached;
+    if (right_reached) prefetchChildren(right_node);
+    if (left_reached) prefetchChildren(left_node);
   }
-  if (visitor) return Status::ok();
   const auto vertex_count = static_cast<std::size_t>(m.num_vertices);  // > 0 (checkModel)
   for (std::size_t i = 0; i < leaves; ++i) {
-    const std::size_t* tri = corners(m, stack[i]);
+    const std::size_t* tri = corners(m, queue[i]);
     // An index out of range is reported below, never fetched.
     for (int k = 0; k < 3; ++k)
       if (tri[k] < vertex_count) __builtin_prefetch(&m.vertices[tri[k]]);
   }
   for (std::size_t i = 0; i < leaves; ++i)
-    if (!appendTriangle(m, stack[i], q, to_query, identity, mesh_index, out)) return indexError(m, stack[i]);
+    if (!appendTriangle(m, queue[i], q, to_query, identity, mesh_index, out)) return indexError(m, queue[i]);
   return Status::ok();
 }
 
@@ -314,7 +357,10 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
                    std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor) {
   return withModel(mesh,
-                   [&](const auto& m) { return gatherTyped(m, volume, to_query, mesh_index, stack, out, visitor); });
+                   [&](const auto& m) {
+                     return visitor ? visitNearestFirst(m, volume, to_query, mesh_index, stack, out, *visitor)
+                                    : gatherBreadthFirst(m, volume, to_query, mesh_index, stack, out);
+                   });
 }
 
 }  // namespace meshcontact::fcl::detail
