@@ -1,0 +1,212 @@
+// What an ODE program pays per dCollide(trimesh, shape): ODE's own trimesh
+// collider against the same call through meshcontact::ode's collider
+// override (installColliders(), the one line an ODE program adds), and the
+// core query the override runs (collideSphere / collideBox on the same
+// mesh), on the same placements, in the same run.
+//
+// Scene and placements: compare_bench's flat floor (512 triangles, welded,
+// random diagonals) with its seeded sphere placements (r 0.1-1 m, every one
+// touching) and box placements (half extents 0.1-0.4 m, random rotation,
+// lowest corner 5 cm below to 1 cm above), the first --placements of each.
+// Each case cycles through its list; every iteration is one query.
+//
+// Threads: the /threads:2 cases run the same loop on two threads at once,
+// each with its own trimesh geom and shape geom on the one shared
+// dTriMeshDataID (parallel simulations of one terrain, each stepping its own
+// world): the time is per query on each thread, so equal times mean perfect
+// scaling. ODE's own collider runs on one thread only: with two threads on
+// one dTriMeshDataID it stops on an internal OPCODE assertion (triangle index
+// out of range) in this Debian build. ODE's collider override is process-wide, so each case sets ODE up
+// in its mode first (dInitODE2, installColliders or not) and closes it after.
+//
+// Reproduce (Release build):
+//   build/benchmarks/ode/ode_adapter_bench --benchmark_enable_random_interleaving=true
+#include <meshcontact/meshcontact.h>
+#include <meshcontact/ode.h>
+#include <meshcontact_peers/peers.h>
+
+#include <benchmark/benchmark.h>
+#include <ode/ode.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace mc = meshcontact;
+namespace peers = meshcontact::peers;
+
+namespace {
+
+// dCollide's budget: room for every contact either method makes here (ODE's
+// own collider gives up to ~40 on a large sphere; a smaller budget makes it
+// stop early and return an arbitrary subset), as compare_bench gives it.
+constexpr int kContactBudget = 64;
+int g_placements = 4096;
+
+enum class Mode { kOdeNative, kOdeMeshcontact };
+enum class Shape { kSphere, kBox };
+
+// The scene, its placements and its ODE data (made per case: ODE is closed
+// between cases, and its trimesh data with it).
+struct Fixture {
+  bool ready = false;
+  peers::CompareScene scene;
+  std::vector<peers::SpherePlacement> spheres;
+  std::vector<peers::BoxPlacement> boxes;
+  std::vector<double> vertices;
+  std::vector<dTriIndex> indices;
+  mc::TriangleMesh mesh;
+  dTriMeshDataID data = nullptr;
+};
+Fixture g;
+
+void loadScene() {
+  if (g.ready) return;
+  g.scene = peers::compareScene("flat", 2026);
+  const peers::LocalSphereOracle oracle(g.scene);
+  g.spheres = peers::spherePlacements(g.scene, oracle, g_placements, 2027);
+  g.boxes = peers::boxPlacements(g.scene, g_placements, 2028);
+  const mc::scenes::SceneMesh& piece = g.scene.pieces.at(0);
+  g.vertices = piece.vertices;
+  g.indices.assign(piece.indices.begin(), piece.indices.end());
+  if (!g.mesh.build(piece.view())) std::abort();
+  g.ready = true;
+}
+
+void openOde(Mode mode) {
+  loadScene();
+  dInitODE2(0);
+  dAllocateODEDataForThread(dAllocateMaskAll);
+  if (mode == Mode::kOdeMeshcontact && !mc::ode::installColliders()) std::abort();
+  g.data = dGeomTriMeshDataCreate();
+  const int vertex_count = static_cast<int>(g.vertices.size() / 3);
+  const int index_count = static_cast<int>(g.indices.size());
+  // The adapter's build wrapper: ODE's dGeomTriMeshDataBuildDouble, and the
+  // arrays noted so that the adapter reads them in full precision.
+  if (!mc::ode::buildTriMeshDataDouble(g.data, g.vertices.data(), 3 * sizeof(double), vertex_count, g.indices.data(),
+                                       index_count, 3 * sizeof(dTriIndex)))
+    std::abort();
+}
+
+void closeOde() {
+  mc::ode::destroyTriMeshData(g.data);
+  mc::ode::clearAll();
+  dCloseODE();
+}
+
+void setUpNative(const benchmark::State&) { openOde(Mode::kOdeNative); }
+void setUpMeshcontact(const benchmark::State&) { openOde(Mode::kOdeMeshcontact); }
+void tearDown(const benchmark::State&) { closeOde(); }
+
+void place(dGeomID geom, const mc::Pose& pose) {
+  dGeomSetPosition(geom, pose.translation.x(), pose.translation.y(), pose.translation.z());
+  dMatrix3 R;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) R[4 * a + b] = pose.rotation(a, b);
+    R[4 * a + 3] = 0;
+  }
+  dGeomSetRotation(geom, R);
+}
+
+// dCollide(trimesh, shape) on this thread's own geoms (ODE's trimesh
+// collider keeps per-thread caches: each thread makes and destroys its geoms
+// between its dAllocateODEDataForThread and dCleanupODEAllDataForThread).
+void BM_DCollide(benchmark::State& state, Shape shape) {
+  const int t = state.thread_index();
+  dAllocateODEDataForThread(dAllocateMaskAll);
+  dGeomID trimesh = dCreateTriMesh(nullptr, g.data, nullptr, nullptr, nullptr);
+  dGeomID geom = shape == Shape::kSphere ? dCreateSphere(nullptr, 0.5) : dCreateBox(nullptr, 1.0, 1.0, 1.0);
+  dContactGeom contacts[kContactBudget];
+  const std::size_t n = shape == Shape::kSphere ? g.spheres.size() : g.boxes.size();
+  std::size_t i = static_cast<std::size_t>(t) * n / 2;  // the threads start apart in the list
+  long total = 0;
+  for (auto _ : state) {
+    if (shape == Shape::kSphere) {
+      const peers::SpherePlacement& p = g.spheres[i];
+      dGeomSphereSetRadius(geom, p.radius);
+      dGeomSetPosition(geom, p.center.x(), p.center.y(), p.center.z());
+    } else {
+      const peers::BoxPlacement& p = g.boxes[i];
+      dGeomBoxSetLengths(geom, 2 * p.half_extents.x(), 2 * p.half_extents.y(), 2 * p.half_extents.z());
+      place(geom, p.pose);
+    }
+    const int found = dCollide(trimesh, geom, kContactBudget, contacts, sizeof(dContactGeom));
+    benchmark::DoNotOptimize(contacts[0]);
+    total += found;
+    if (++i == n) i = 0;
+  }
+  state.counters["contacts"] = benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
+  dGeomDestroy(geom);
+  dGeomDestroy(trimesh);
+  dCleanupODEAllDataForThread();
+}
+
+// The core query the override runs, on the same placements.
+void BM_Core(benchmark::State& state, Shape shape) {
+  loadScene();
+  const int t = state.thread_index();
+  mc::QueryScratch scratch;
+  std::vector<mc::Contact> contacts;
+  const mc::QuerySettings settings;
+  const std::size_t n = shape == Shape::kSphere ? g.spheres.size() : g.boxes.size();
+  std::size_t i = static_cast<std::size_t>(t) * n / 2;
+  long total = 0;
+  for (auto _ : state) {
+    mc::Status s;
+    if (shape == Shape::kSphere) {
+      const peers::SpherePlacement& p = g.spheres[i];
+      s = mc::collideSphere(g.mesh, mc::Sphere{p.center, p.radius}, settings, scratch, contacts);
+    } else {
+      const peers::BoxPlacement& p = g.boxes[i];
+      s = mc::collideBox(g.mesh, mc::Box{p.half_extents}, p.pose, settings, scratch, contacts);
+    }
+    if (!s) state.SkipWithError(s.message().c_str());
+    total += static_cast<long>(contacts.size());
+    if (++i == n) i = 0;
+  }
+  state.counters["contacts"] = benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<char*> rest;
+  for (int i = 0; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--placements") == 0 && i + 1 < argc) {
+      g_placements = std::atoi(argv[++i]);
+      continue;
+    }
+    rest.push_back(argv[i]);
+  }
+  int rest_argc = static_cast<int>(rest.size());
+  benchmark::Initialize(&rest_argc, rest.data());
+  for (const Shape shape : {Shape::kSphere, Shape::kBox}) {
+    const std::string name = shape == Shape::kSphere ? "sphere" : "box";
+    // One thread only: ODE's own collider (OPCODE, this Debian build) stops
+    // on an internal assertion when two threads collide against one
+    // dTriMeshDataID at once.
+    benchmark::RegisterBenchmark(("ode_native/" + name).c_str(), BM_DCollide, shape)
+        ->Setup(setUpNative)
+        ->Teardown(tearDown)
+        ->Threads(1)
+        ->Repetitions(5)
+        ->ReportAggregatesOnly(true);
+    benchmark::RegisterBenchmark(("ode_meshcontact/" + name).c_str(), BM_DCollide, shape)
+        ->Setup(setUpMeshcontact)
+        ->Teardown(tearDown)
+        ->Threads(1)
+        ->Threads(2)
+        ->Repetitions(5)
+        ->ReportAggregatesOnly(true);
+    benchmark::RegisterBenchmark(("core/" + name).c_str(), BM_Core, shape)
+        ->Threads(1)
+        ->Threads(2)
+        ->Repetitions(5)
+        ->ReportAggregatesOnly(true);
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
