@@ -189,5 +189,76 @@ TEST(OdeConcurrency, ThreadsSharingTriMeshDataGiveTheSingleThreadResult) {
   for (dTriMeshDataID d : data) ode::destroyTriMeshData(d);
 }
 
+// Each thread counts its own queries (no count shared between threads):
+// statistics() must still add up every thread's, while they run and after
+// they exit, and resetStatistics() must start every count from zero again,
+// the threads' counts included.
+TEST(OdeConcurrency, StatisticsAddUpEveryThreadsQueries) {
+  odetest::Session session;
+  const Status installed = ode::installColliders();
+  ASSERT_TRUE(installed.isOk()) << installed.message();
+  const SceneMesh floor = scenes::flatFloor(6, 6, 0.5, 3);
+  const std::vector<dTriIndex> indices(floor.indices.begin(), floor.indices.end());
+  dTriMeshDataID data = dGeomTriMeshDataCreate();
+  ASSERT_TRUE(ode::buildTriMeshDataDouble(data, floor.vertices.data(), 3 * sizeof(double),
+                                          static_cast<int>(floor.vertexCount()), indices.data(),
+                                          static_cast<int>(indices.size()), 3 * sizeof(dTriIndex))
+                  .isOk());
+  // Each thread's own ground and sphere geoms, made and destroyed here: ODE
+  // recycles a destroyed geom's memory through a cache of its own that
+  // ThreadSanitizer cannot see (a false race between threads otherwise).
+  std::vector<dGeomID> grounds, spheres;
+  for (int t = 0; t <= kThreads; ++t) {
+    grounds.push_back(dCreateTriMesh(nullptr, data, nullptr, nullptr, nullptr));
+    spheres.push_back(dCreateSphere(nullptr, 0.25));
+  }
+  // A sphere sunk 5 cm into the flat floor: one face contact per query.
+  const auto collideSome = [&](int t, int queries) {
+    dContactGeom buffer[kMaxContacts];
+    int contacts = 0;
+    for (int q = 0; q < queries; ++q) {
+      dGeomSetPosition(spheres[t], 0.6 + 0.013 * q, 1.4, 0.2);
+      contacts += dCollide(grounds[t], spheres[t], kMaxContacts, buffer, sizeof(dContactGeom));
+    }
+    return contacts;
+  };
+  ode::resetStatistics();
+  constexpr int kQueries = 150;
+  std::atomic<int> counted{0};
+  std::atomic<bool> release{false};
+  std::vector<int> contacts(kThreads, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      dAllocateODEDataForThread(dAllocateMaskAll);
+      contacts[t] = collideSome(t, kQueries);
+      ++counted;
+      while (!release.load()) std::this_thread::yield();  // alive while the main thread reads the counts
+      dCleanupODEAllDataForThread();
+    });
+  while (counted.load() < kThreads) std::this_thread::yield();
+  for (int t = 0; t < kThreads; ++t) EXPECT_EQ(contacts[t], kQueries) << "thread " << t;
+  const auto expectCounts = [](std::uint64_t queries, const char* when) {
+    const ode::Statistics s = ode::statistics();
+    EXPECT_EQ(s.pair_queries, queries) << when;
+    EXPECT_EQ(s.contacts_found, queries) << when;
+    EXPECT_EQ(s.contacts_returned, queries) << when;
+    EXPECT_EQ(s.errors, 0u) << when << ": " << ode::lastError();
+  };
+  expectCounts(kThreads * kQueries, "threads alive");
+  release = true;
+  for (std::thread& t : threads) t.join();
+  expectCounts(kThreads * kQueries, "threads exited");
+  ode::resetStatistics();
+  expectCounts(0, "after the reset");
+  EXPECT_EQ(collideSome(kThreads, 7), 7);
+  expectCounts(7, "7 more queries on the main thread");
+  for (int t = 0; t <= kThreads; ++t) {
+    dGeomDestroy(spheres[t]);
+    dGeomDestroy(grounds[t]);
+  }
+  ode::destroyTriMeshData(data);
+}
+
 }  // namespace
 }  // namespace meshcontact

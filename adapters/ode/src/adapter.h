@@ -16,6 +16,7 @@
 #include <mutex>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace meshcontact::ode::detail {
@@ -43,6 +44,13 @@ struct Group {
   std::vector<dGeomID> members;  // registration order: the frame is members[0]'s
 };
 
+class ThreadCounters;
+
+/// Statistics totals (see Statistics).
+struct CounterTotals {
+  std::uint64_t pair_queries = 0, contacts_found = 0, contacts_returned = 0;
+};
+
 class Registry {
  public:
   static Registry& get();
@@ -53,14 +61,61 @@ class Registry {
   std::unordered_map<dTriMeshDataID, Arrays> arrays;
   std::unordered_map<dGeomID, std::shared_ptr<const Group>> groups;
   std::unordered_map<dGeomID, std::shared_ptr<const ConvexHull>> hulls;
-  /// Bumped by every change that can change a query's result without
-  /// changing a pose (invalidation, groups, hulls, settings): the triangle
-  /// filter's memo compares it.
+  /// Bumped, under `mutex`, by every change that can change a query's result
+  /// without changing a pose (invalidation, groups, hulls, settings): each
+  /// thread's RegistryView and the triangle filter's memo compare it.
   std::atomic<std::uint64_t> generation{1};
 
-  std::atomic<std::uint64_t> pair_queries{0}, contacts_found{0}, contacts_returned{0}, mesh_builds{0}, errors{0};
+  /// The per-query counts are each thread's own (ThreadCounters): a count
+  /// every thread incremented here cost each dCollide a cache line passed
+  /// between the cores.
+  std::mutex counters_mutex;
+  std::vector<const ThreadCounters*> live_counters;  // guarded by counters_mutex
+  CounterTotals retired;   // of the threads that exited; guarded by counters_mutex
+  CounterTotals baseline;  // the totals at the last resetStatistics(); guarded by counters_mutex
+  std::atomic<std::uint64_t> mesh_builds{0}, errors{0};
   std::mutex error_mutex;
   std::string last_error;  // guarded by error_mutex
+};
+
+/// One thread's per-query counts: written by that thread alone (a load and a
+/// store, no read-modify-write), read by statistics() under counters_mutex.
+/// Registered with the registry while the thread lives; its counts move to
+/// Registry::retired when it exits.
+class ThreadCounters {
+ public:
+  ThreadCounters();
+  ~ThreadCounters();
+  ThreadCounters(const ThreadCounters&) = delete;
+  ThreadCounters& operator=(const ThreadCounters&) = delete;
+
+  void addPairQuery() { add(pair_queries_, 1); }
+  void addContactsFound(std::uint64_t n) { add(contacts_found_, n); }
+  void addContactsReturned(std::uint64_t n) { add(contacts_returned_, n); }
+  CounterTotals load() const;
+
+ private:
+  static void add(std::atomic<std::uint64_t>& c, std::uint64_t n) {
+    c.store(c.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
+  }
+  std::atomic<std::uint64_t> pair_queries_{0}, contacts_found_{0}, contacts_returned_{0};
+};
+
+/// The registry as one thread last read it, so that a query takes no lock
+/// and writes nothing another thread reads: the settings are copied under
+/// the registry's lock when its generation has moved since (refreshView, at
+/// the start of each entry point, never during a query), and the meshes,
+/// groups and hulls this thread looked up at that generation are kept here,
+/// which also keeps them alive through its queries. So a mesh invalidated
+/// meanwhile is freed once every thread that used it has started its next
+/// query (or exited).
+struct RegistryView {
+  std::uint64_t generation = 0;  // the registry starts at 1: the first refresh reads it
+  Settings settings;
+  bool any_group = false;
+  std::vector<std::pair<dTriMeshDataID, std::shared_ptr<const MeshEntry>>> meshes;
+  std::vector<std::pair<dGeomID, std::shared_ptr<const Group>>> groups;  // null: not in a group
+  std::vector<std::pair<dGeomID, std::shared_ptr<const ConvexHull>>> hulls;
 };
 
 /// Counts the error, keeps its message, calls the user's handler.
@@ -81,17 +136,19 @@ struct ShapeQuery {
   double radius = 0.0;       // sphere, capsule, cylinder
   double half_length = 0.0;  // capsule, cylinder
   Vec3 half_extents = Vec3::Zero();
-  std::shared_ptr<const ConvexHull> hull;
+  const ConvexHull* hull = nullptr;  // kept alive by the thread's RegistryView
   Pose pose;
 };
 
 /// Which ShapeMask bit a geom class is, 0 when the adapter does not handle it.
 unsigned shapeBit(int geom_class);
 
-/// Reads the shape's class, parameters and world pose. Errors:
-/// kInvalidShape (a class the adapter does not handle, an unregistered
-/// convex geom).
-Status describeShape(dGeomID shape, ShapeQuery& out);
+struct ThreadContext;
+
+/// Reads the shape's class, parameters and world pose (a convex geom's hull
+/// through ctx.view). Errors: kInvalidShape (a class the adapter does not
+/// handle, an unregistered convex geom).
+Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out);
 
 /// Per-thread scratch: no allocation once every buffer reached its size.
 struct ThreadContext {
@@ -99,21 +156,31 @@ struct ThreadContext {
   std::vector<Contact> contacts;
   std::vector<MeshInstance> instances;
   std::vector<dGeomID> instance_geoms;                   // geom of each instance
-  std::vector<std::shared_ptr<const MeshEntry>> held;    // keeps the meshes alive during the query
   std::vector<std::uint32_t> chosen;
   std::vector<double> min_distance2;
   std::vector<TraceEntry> trace;
   ShapeQuery shape;
   Pose frame;  // query frame -> world
+  RegistryView view;
+  ThreadCounters counters;
 };
 ThreadContext& threadContext();
+
+/// Brings ctx.view up to the registry's generation (one atomic load when it
+/// has not moved) and returns the settings. Called at the start of each
+/// entry point, never during a query: the view holds the query's meshes.
+const Settings& refreshView(ThreadContext& ctx);
+
+/// The cached BVH of this trimesh geom's data, through ctx.view (the
+/// registry, under its lock, on the view's first use of the data).
+Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out);
 
 /// Which trimesh geoms a pair query gathers, and in which frame.
 /// - a grouped trimesh: every member whose AABB touches the shape's (inflated
 ///   by the contact distance), always including the one asked, in group
 ///   order, in the frame of the group's first member;
 /// - otherwise the trimesh alone, in its own frame.
-/// Fills ctx.instances / instance_geoms / held / frame and returns in `own`
+/// Fills ctx.instances / instance_geoms / frame and returns in `own`
 /// the index of `trimesh` among the instances.
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
                        std::uint32_t& own);
@@ -136,6 +203,7 @@ Status shapeInFrame(dGeomID shape, ThreadContext& ctx);
 void selectContacts(const std::vector<Contact>& contacts, int budget, std::vector<std::uint32_t>& chosen,
                     std::vector<double>& min_distance2);
 
+/// The registry's settings, read under its lock.
 Settings settingsSnapshot();
 
 }  // namespace meshcontact::ode::detail

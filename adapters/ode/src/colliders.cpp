@@ -54,7 +54,6 @@ int writeContacts(const ThreadContext& ctx, bool trimesh_first, dGeomID trimesh,
     out->side1 = trimesh_first ? static_cast<int>(c.triangle) : -1;
     out->side2 = trimesh_first ? -1 : static_cast<int>(c.triangle);
   }
-  Registry::get().contacts_returned.fetch_add(written, std::memory_order_relaxed);
   return written;
 }
 
@@ -63,28 +62,23 @@ int writeContacts(const ThreadContext& ctx, bool trimesh_first, dGeomID trimesh,
 int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* contacts, int skip) {
   const int budget = flags & 0xffff;
   if (budget <= 0) return 0;
-  Registry& r = Registry::get();
-  r.pair_queries.fetch_add(1, std::memory_order_relaxed);
-  const Settings settings = detail::settingsSnapshot();
   ThreadContext& ctx = detail::threadContext();
+  ctx.counters.addPairQuery();
+  const Settings& settings = detail::refreshView(ctx);
   std::uint32_t own = 0;
   Status s = detail::gatherInstances(trimesh, shape, settings.query, ctx, own);
   if (s) s = detail::shapeInFrame(shape, ctx);
   if (s) s = detail::runShapeQuery(settings.query, ctx);
   if (!s) {
-    ctx.held.clear();
     detail::report(s, trimesh, shape);
     return 0;
   }
-  if (own == UINT32_MAX) {  // empty trimesh
-    ctx.held.clear();
-    return 0;
-  }
+  if (own == UINT32_MAX) return 0;  // empty trimesh
   keepInstance(ctx.contacts, own);
-  r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
+  ctx.counters.addContactsFound(ctx.contacts.size());
   detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
   const int written = writeContacts(ctx, true, trimesh, shape, contacts, skip);
-  ctx.held.clear();  // an invalidated mesh is freed now, not at this thread's next query
+  ctx.counters.addContactsReturned(static_cast<std::uint64_t>(written));
   return written;
 }
 
@@ -109,22 +103,20 @@ Status installColliders(const Settings& settings, unsigned* installed) {
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts, int skip) {
   const int budget = flags & 0xffff;
   if (budget <= 0) return 0;
-  Registry& r = Registry::get();
-  r.pair_queries.fetch_add(1, std::memory_order_relaxed);
-  const Settings settings = detail::settingsSnapshot();
   ThreadContext& ctx = detail::threadContext();
+  ctx.counters.addPairQuery();
+  const Settings& settings = detail::refreshView(ctx);
   Status s = detail::gatherInstanceList(trimeshes, count, shape, settings.query, ctx);
   if (s) s = detail::shapeInFrame(shape, ctx);
   if (s) s = detail::runShapeQuery(settings.query, ctx);
   if (!s) {
-    ctx.held.clear();
     detail::report(s, count > 0 && trimeshes ? trimeshes[0] : nullptr, shape);
     return 0;
   }
-  r.contacts_found.fetch_add(ctx.contacts.size(), std::memory_order_relaxed);
+  ctx.counters.addContactsFound(ctx.contacts.size());
   detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);
   const int written = writeContacts(ctx, false, nullptr, shape, contacts, skip);
-  ctx.held.clear();
+  ctx.counters.addContactsReturned(static_cast<std::uint64_t>(written));
   return written;
 }
 

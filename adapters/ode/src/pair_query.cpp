@@ -27,9 +27,34 @@ unsigned shapeBit(int geom_class) {
   }
 }
 
-Status describeShape(dGeomID shape, ShapeQuery& out) {
+namespace {
+
+// The registry's entry for `key` (null when it has none), through the
+// thread's view: looked up under the registry's lock on the view's first use
+// of the key, then held by the view (a raw pointer, so that threads sharing
+// a group or hull do not count references on one shared block per query).
+template <class Key, class Value>
+const Value* viewLookup(std::vector<std::pair<Key, std::shared_ptr<const Value>>>& seen,
+                        const std::unordered_map<Key, std::shared_ptr<const Value>>& registry_map, Key key) {
+  for (const auto& [k, value] : seen)
+    if (k == key) return value.get();
+  std::shared_ptr<const Value> value;
+  {
+    Registry& r = Registry::get();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    auto it = registry_map.find(key);
+    if (it != registry_map.end()) value = it->second;
+  }
+  const Value* raw = value.get();
+  seen.emplace_back(key, std::move(value));
+  return raw;
+}
+
+}  // namespace
+
+Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
   const int cls = dGeomGetClass(shape);
-  out.hull.reset();
+  out.hull = nullptr;
   out.pose = geomPose(shape);
   switch (cls) {
     case dSphereClass:
@@ -61,15 +86,13 @@ Status describeShape(dGeomID shape, ShapeQuery& out) {
       return Status::ok();
     }
     case dConvexClass: {
-      Registry& r = Registry::get();
-      std::lock_guard<std::mutex> lock(r.mutex);
-      auto it = r.hulls.find(shape);
-      if (it == r.hulls.end())
+      const ConvexHull* hull = viewLookup(ctx.view.hulls, Registry::get().hulls, shape);
+      if (!hull)
         return {ErrorCode::kInvalidShape,
                 "convex geom was not registered (ODE does not publish its points: call "
                 "meshcontact::ode::registerConvex or createConvex)"};
       out.kind = ShapeKind::kConvex;
-      out.hull = it->second;
+      out.hull = hull;
       return Status::ok();
     }
     default:
@@ -78,7 +101,7 @@ Status describeShape(dGeomID shape, ShapeQuery& out) {
 }
 
 Status shapeInFrame(dGeomID shape, ThreadContext& ctx) {
-  Status s = describeShape(shape, ctx.shape);
+  Status s = describeShape(shape, ctx, ctx.shape);
   if (!s) return s;
   // Shape pose relative to the trimesh: frame^-1 * world. With an identity
   // frame (the usual static ground) this is bit-exact.
@@ -102,20 +125,18 @@ Pose relativePose(const Pose& frame, const Pose& member) {
 }
 
 Status addInstance(dGeomID geom, const Pose& frame, ThreadContext& ctx) {
-  std::shared_ptr<const MeshEntry> entry;
-  Status s = meshFor(geom, entry);
+  const MeshEntry* entry = nullptr;
+  Status s = meshFor(geom, ctx, entry);  // held by ctx.view through the query
   if (!s) return s;
   if (entry->empty) return Status::ok();
   ctx.instances.push_back({&entry->mesh, relativePose(frame, geomPose(geom))});
   ctx.instance_geoms.push_back(geom);
-  ctx.held.push_back(std::move(entry));
   return Status::ok();
 }
 
 void clearInstances(ThreadContext& ctx) {
   ctx.instances.clear();
   ctx.instance_geoms.clear();
-  ctx.held.clear();
 }
 
 }  // namespace
@@ -123,13 +144,8 @@ void clearInstances(ThreadContext& ctx) {
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
                        std::uint32_t& own) {
   clearInstances(ctx);
-  std::shared_ptr<const Group> group;
-  {
-    Registry& r = Registry::get();
-    std::lock_guard<std::mutex> lock(r.mutex);
-    auto it = r.groups.find(trimesh);
-    if (it != r.groups.end()) group = it->second;
-  }
+  // No group registered at the view's generation: no lookup at all.
+  const Group* group = ctx.view.any_group ? viewLookup(ctx.view.groups, Registry::get().groups, trimesh) : nullptr;
   own = UINT32_MAX;
   if (!group) {
     ctx.frame = geomPose(trimesh);

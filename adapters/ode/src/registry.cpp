@@ -40,6 +40,50 @@ Settings settingsSnapshot() {
   return r.settings;
 }
 
+ThreadCounters::ThreadCounters() {
+  Registry& r = Registry::get();
+  std::lock_guard<std::mutex> lock(r.counters_mutex);
+  r.live_counters.push_back(this);
+}
+
+ThreadCounters::~ThreadCounters() {
+  Registry& r = Registry::get();
+  std::lock_guard<std::mutex> lock(r.counters_mutex);
+  const CounterTotals mine = load();
+  r.retired.pair_queries += mine.pair_queries;
+  r.retired.contacts_found += mine.contacts_found;
+  r.retired.contacts_returned += mine.contacts_returned;
+  for (std::size_t i = 0; i < r.live_counters.size(); ++i)
+    if (r.live_counters[i] == this) {
+      r.live_counters[i] = r.live_counters.back();
+      r.live_counters.pop_back();
+      break;
+    }
+}
+
+CounterTotals ThreadCounters::load() const {
+  CounterTotals t;
+  t.pair_queries = pair_queries_.load(std::memory_order_relaxed);
+  t.contacts_found = contacts_found_.load(std::memory_order_relaxed);
+  t.contacts_returned = contacts_returned_.load(std::memory_order_relaxed);
+  return t;
+}
+
+const Settings& refreshView(ThreadContext& ctx) {
+  Registry& r = Registry::get();
+  RegistryView& v = ctx.view;
+  if (r.generation.load(std::memory_order_acquire) != v.generation) {
+    std::lock_guard<std::mutex> lock(r.mutex);
+    v.generation = r.generation.load(std::memory_order_relaxed);  // bumped under this lock: matches what is read
+    v.settings = r.settings;
+    v.any_group = !r.groups.empty();
+    v.meshes.clear();
+    v.groups.clear();
+    v.hulls.clear();
+  }
+  return v.settings;
+}
+
 Pose geomPose(dGeomID geom) {
   const dReal* p = dGeomGetPosition(geom);
   const dReal* R = dGeomGetRotation(geom);  // dMatrix3: 3 rows of 4 (the 4th unused)
@@ -175,6 +219,31 @@ Status checkSettings(const Settings& s) {
 }
 
 }  // namespace
+
+Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
+  if (trimesh == nullptr || dGeomGetClass(trimesh) != dTriMeshClass)
+    return {ErrorCode::kMeshNotBuilt, "geom is not a trimesh"};
+  dTriMeshDataID data = dGeomTriMeshGetData(trimesh);
+  // The view's entry, unless ODE's data was rebuilt since (its triangle
+  // count moved): then the registry's check below rebuilds it.
+  const int count = dGeomTriMeshGetTriangleCount(trimesh);
+  for (auto& [d, entry] : ctx.view.meshes)
+    if (d == data && entry->ode_triangle_count == count) {
+      out = entry.get();
+      return Status::ok();
+    }
+  std::shared_ptr<const MeshEntry> entry;
+  Status s = meshFor(trimesh, entry);
+  if (!s) return s;
+  out = entry.get();
+  for (auto& [d, held] : ctx.view.meshes)
+    if (d == data) {
+      held = std::move(entry);
+      return Status::ok();
+    }
+  ctx.view.meshes.emplace_back(data, std::move(entry));
+  return Status::ok();
+}
 
 Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {
   if (trimesh == nullptr || dGeomGetClass(trimesh) != dTriMeshClass)
@@ -392,12 +461,33 @@ void leaveGroup(dGeomID trimesh) {
   r.generation.fetch_add(1);
 }
 
+namespace {
+
+// The per-query counts of every thread since the process started (the
+// threads that exited, and those alive). Call with counters_mutex held.
+detail::CounterTotals allCounts(const Registry& r) {
+  detail::CounterTotals t = r.retired;
+  for (const detail::ThreadCounters* c : r.live_counters) {
+    const detail::CounterTotals mine = c->load();
+    t.pair_queries += mine.pair_queries;
+    t.contacts_found += mine.contacts_found;
+    t.contacts_returned += mine.contacts_returned;
+  }
+  return t;
+}
+
+}  // namespace
+
 Statistics statistics() {
   Registry& r = Registry::get();
   Statistics s;
-  s.pair_queries = r.pair_queries.load();
-  s.contacts_found = r.contacts_found.load();
-  s.contacts_returned = r.contacts_returned.load();
+  {
+    std::lock_guard<std::mutex> lock(r.counters_mutex);
+    const detail::CounterTotals t = allCounts(r);
+    s.pair_queries = t.pair_queries - r.baseline.pair_queries;
+    s.contacts_found = t.contacts_found - r.baseline.contacts_found;
+    s.contacts_returned = t.contacts_returned - r.baseline.contacts_returned;
+  }
   s.mesh_builds = r.mesh_builds.load();
   s.errors = r.errors.load();
   return s;
@@ -405,9 +495,12 @@ Statistics statistics() {
 
 void resetStatistics() {
   Registry& r = Registry::get();
-  r.pair_queries = 0;
-  r.contacts_found = 0;
-  r.contacts_returned = 0;
+  {
+    // The counts keep growing in each thread; statistics() reports them
+    // from here on.
+    std::lock_guard<std::mutex> lock(r.counters_mutex);
+    r.baseline = allCounts(r);
+  }
   r.mesh_builds = 0;
   r.errors = 0;
   std::lock_guard<std::mutex> lock(r.error_mutex);

@@ -60,7 +60,7 @@ bool memoHolds(const Memo& m, dGeomID trimesh, dGeomID shape) {
   if (!samePose(m.trimesh_pose, detail::geomPose(trimesh)) || !samePose(m.shape_pose, detail::geomPose(shape)))
     return false;
   detail::ShapeQuery now;
-  if (!detail::describeShape(shape, now) || !sameParams(now, m.params)) return false;
+  if (!detail::describeShape(shape, detail::threadContext(), now) || !sameParams(now, m.params)) return false;
   // Group members (a moved member changes the query); the member list itself
   // is covered by the generation.
   for (std::size_t i = 0; i < m.members.size(); ++i)
@@ -84,10 +84,9 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
     m.pass_all = true;  // rays, planes' partners, trimesh-trimesh: not ours to filter
     return;
   }
-  Registry& r = Registry::get();
-  r.pair_queries.fetch_add(1, std::memory_order_relaxed);
-  QuerySettings settings = detail::settingsSnapshot().query;
   ThreadContext& ctx = detail::threadContext();
+  ctx.counters.addPairQuery();
+  QuerySettings settings = detail::refreshView(ctx).query;
   settings.trace = &ctx.trace;
   std::uint32_t own = 0;
   Status s = detail::gatherInstances(trimesh, shape, settings, ctx, own);
@@ -96,7 +95,6 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   if (!s) {
     // Reported, and ODE's collider runs unfiltered: a failed filter must not
     // silently remove the ground.
-    ctx.held.clear();
     detail::report(s, trimesh, shape);
     m.pass_all = true;
     return;
@@ -121,9 +119,8 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
       case Verdict::kBeyondContactDistance: break;
     }
   }
-  ctx.held.clear();
   std::sort(m.rejected.begin(), m.rejected.end());
-  r.contacts_found.fetch_add(contacts, std::memory_order_relaxed);
+  ctx.counters.addContactsFound(contacts);
 }
 
 int triangleFilter(dGeomID trimesh, dGeomID shape, int triangle) {

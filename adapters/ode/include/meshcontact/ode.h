@@ -59,10 +59,16 @@
 // thread needs dAllocateODEDataForThread as usual). Each thread keeps one
 // QueryScratch (and its contact buffers) in thread_local storage, so
 // steady-state queries do not allocate. The cache, groups, convex
-// registrations and settings are behind one mutex, and a cached BVH stays
-// alive while a query uses it, so registering or invalidating while other
-// threads collide is safe. installColliders() is not: ODE's collider table
-// is a plain global, so install before collisions start.
+// registrations and settings are behind one mutex, but a query takes it only
+// on its thread's first use of a mesh, group or hull since the last change:
+// each thread keeps what it read (and the statistics it counts) until a
+// registration, invalidation or settings change moves the registry on, so
+// threads colliding at once share nothing that one of them writes. A cached
+// BVH stays alive while a thread may use it (an invalidated one is freed
+// once each thread that used it has started its next query, or exited), so
+// registering or invalidating while other threads collide is safe.
+// installColliders() is not: ODE's collider table is a plain global, so
+// install before collisions start.
 //
 // Errors: no collider can return an error to ODE. A failed query (a NaN pose,
 // a convex geom that was never registered, ...) produces no contact and is
