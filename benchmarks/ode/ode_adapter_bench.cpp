@@ -10,13 +10,18 @@
 // lowest corner 5 cm below to 1 cm above), the first --placements of each.
 // Each case cycles through its list; every iteration is one query.
 //
+// The dCollide cases' loop also sets the shape geom's size and pose (ODE
+// setters, a few ns), which the core case does not have.
+//
 // Threads: the /threads:2 cases run the same loop on two threads at once,
 // each with its own trimesh geom and shape geom on the one shared
 // dTriMeshDataID (parallel simulations of one terrain, each stepping its own
-// world): the time is per query on each thread, so equal times mean perfect
-// scaling. ODE's own collider runs on one thread only: with two threads on
-// one dTriMeshDataID it stops on an internal OPCODE assertion (triangle index
-// out of range) in this Debian build. ODE's collider override is process-wide, so each case sets ODE up
+// world). There Google Benchmark's "Time" is wall time per query over both
+// threads (half the one-thread time when the threads do not slow each
+// other) and "CPU" is CPU time per query (which does not count a thread
+// blocked on a lock). ODE's own collider runs on one thread only: with two
+// threads on one dTriMeshDataID it stops on an internal OPCODE assertion
+// (triangle index out of range) in this Debian build. ODE's collider override is process-wide, so each case sets ODE up
 // in its mode first (dInitODE2, installColliders or not) and closes it after.
 //
 // Reproduce (Release build):
@@ -51,7 +56,6 @@ enum class Shape { kSphere, kBox };
 // The scene, its placements and its ODE data (made per case: ODE is closed
 // between cases, and its trimesh data with it).
 struct Fixture {
-  bool ready = false;
   peers::CompareScene scene;
   std::vector<peers::SpherePlacement> spheres;
   std::vector<peers::BoxPlacement> boxes;
@@ -63,7 +67,6 @@ struct Fixture {
 Fixture g;
 
 void loadScene() {
-  if (g.ready) return;
   g.scene = peers::compareScene("flat", 2026);
   const peers::LocalSphereOracle oracle(g.scene);
   g.spheres = peers::spherePlacements(g.scene, oracle, g_placements, 2027);
@@ -72,11 +75,9 @@ void loadScene() {
   g.vertices = piece.vertices;
   g.indices.assign(piece.indices.begin(), piece.indices.end());
   if (!g.mesh.build(piece.view())) std::abort();
-  g.ready = true;
 }
 
 void openOde(Mode mode) {
-  loadScene();
   dInitODE2(0);
   dAllocateODEDataForThread(dAllocateMaskAll);
   if (mode == Mode::kOdeMeshcontact && !mc::ode::installColliders()) std::abort();
@@ -145,7 +146,6 @@ void BM_DCollide(benchmark::State& state, Shape shape) {
 
 // The core query the override runs, on the same placements.
 void BM_Core(benchmark::State& state, Shape shape) {
-  loadScene();
   const int t = state.thread_index();
   mc::QueryScratch scratch;
   std::vector<mc::Contact> contacts;
@@ -182,6 +182,7 @@ int main(int argc, char** argv) {
   }
   int rest_argc = static_cast<int>(rest.size());
   benchmark::Initialize(&rest_argc, rest.data());
+  loadScene();  // before any case: the threads of a case only read it
   for (const Shape shape : {Shape::kSphere, Shape::kBox}) {
     const std::string name = shape == Shape::kSphere ? "sphere" : "box";
     // One thread only: ODE's own collider (OPCODE, this Debian build) stops

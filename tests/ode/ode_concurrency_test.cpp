@@ -192,7 +192,9 @@ TEST(OdeConcurrency, ThreadsSharingTriMeshDataGiveTheSingleThreadResult) {
 // Each thread counts its own queries (no count shared between threads):
 // statistics() must still add up every thread's, while they run and after
 // they exit, and resetStatistics() must start every count from zero again,
-// the threads' counts included.
+// the counts of threads still alive included. statistics() is also read
+// while the threads count (ThreadSanitizer: their counts are read as they
+// are written).
 TEST(OdeConcurrency, StatisticsAddUpEveryThreadsQueries) {
   odetest::Session session;
   const Status installed = ode::installColliders();
@@ -236,7 +238,11 @@ TEST(OdeConcurrency, StatisticsAddUpEveryThreadsQueries) {
       while (!release.load()) std::this_thread::yield();  // alive while the main thread reads the counts
       dCleanupODEAllDataForThread();
     });
-  while (counted.load() < kThreads) std::this_thread::yield();
+  while (counted.load() < kThreads) {
+    const ode::Statistics meanwhile = ode::statistics();
+    EXPECT_LE(meanwhile.pair_queries, static_cast<std::uint64_t>(kThreads * kQueries));
+    std::this_thread::yield();
+  }
   for (int t = 0; t < kThreads; ++t) EXPECT_EQ(contacts[t], kQueries) << "thread " << t;
   const auto expectCounts = [](std::uint64_t queries, const char* when) {
     const ode::Statistics s = ode::statistics();
@@ -246,13 +252,15 @@ TEST(OdeConcurrency, StatisticsAddUpEveryThreadsQueries) {
     EXPECT_EQ(s.errors, 0u) << when << ": " << ode::lastError();
   };
   expectCounts(kThreads * kQueries, "threads alive");
-  release = true;
-  for (std::thread& t : threads) t.join();
-  expectCounts(kThreads * kQueries, "threads exited");
   ode::resetStatistics();
-  expectCounts(0, "after the reset");
+  expectCounts(0, "reset while the threads are alive");
   EXPECT_EQ(collideSome(kThreads, 7), 7);
   expectCounts(7, "7 more queries on the main thread");
+  release = true;
+  for (std::thread& t : threads) t.join();
+  expectCounts(7, "threads exited after the reset");
+  ode::resetStatistics();
+  expectCounts(0, "reset after the threads exited");
   for (int t = 0; t <= kThreads; ++t) {
     dGeomDestroy(spheres[t]);
     dGeomDestroy(grounds[t]);

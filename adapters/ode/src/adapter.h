@@ -108,8 +108,11 @@ class ThreadCounters {
 /// groups and hulls this thread looked up at that generation are kept here,
 /// which also keeps them alive through its queries. So a mesh invalidated
 /// meanwhile is freed once every thread that used it has started its next
-/// query (or exited).
+/// query (or exited). The lists are scanned linearly and kept short
+/// (kMaxEntries).
 struct RegistryView {
+  /// A list longer than this is dropped at the next refresh.
+  static constexpr std::size_t kMaxEntries = 64;
   std::uint64_t generation = 0;  // the registry starts at 1: the first refresh reads it
   Settings settings;
   bool any_group = false;

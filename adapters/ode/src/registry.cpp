@@ -13,7 +13,10 @@ namespace meshcontact::ode {
 namespace detail {
 
 Registry& Registry::get() {
-  static Registry registry;  // never destroyed before the colliders stop running
+  // Never destroyed: a thread that collided registers its counters here and
+  // unregisters them when it exits, which may be after static destruction
+  // (a worker pool joined by a static's destructor, a detached thread).
+  static Registry& registry = *new Registry;
   return registry;
 }
 
@@ -72,7 +75,12 @@ CounterTotals ThreadCounters::load() const {
 const Settings& refreshView(ThreadContext& ctx) {
   Registry& r = Registry::get();
   RegistryView& v = ctx.view;
-  if (r.generation.load(std::memory_order_acquire) != v.generation) {
+  // Also started afresh when a list grew long (a thread that meets many
+  // meshes, or trimesh geoms made and destroyed while a group exists): its
+  // scans stay short, and what it holds stays bounded.
+  const bool long_lists = v.meshes.size() > RegistryView::kMaxEntries || v.groups.size() > RegistryView::kMaxEntries ||
+                          v.hulls.size() > RegistryView::kMaxEntries;
+  if (r.generation.load(std::memory_order_acquire) != v.generation || long_lists) {
     std::lock_guard<std::mutex> lock(r.mutex);
     v.generation = r.generation.load(std::memory_order_relaxed);  // bumped under this lock: matches what is read
     v.settings = r.settings;

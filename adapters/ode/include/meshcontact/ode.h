@@ -144,7 +144,10 @@ Status buildTriMeshDataSimple(dTriMeshDataID data, const dReal* vertices, int ve
 
 /// Drops the cached BVH of `data`: it is rebuilt from the current arrays on
 /// next use. Registered arrays stay registered (ODE keeps using them too).
-/// Call after changing the arrays.
+/// Call after changing the arrays. Here and below, the memory of a dropped
+/// BVH is freed once each thread that collided with it has started its next
+/// collision or exited (see "Thread safety"); the BVH is a copy, so the
+/// arrays may go at once.
 void invalidate(dTriMeshDataID data);
 /// dGeomTriMeshDataUpdate(data) + invalidate(data).
 void updateTriMeshData(dTriMeshDataID data);
