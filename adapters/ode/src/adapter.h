@@ -49,6 +49,12 @@ class ThreadCounters;
 /// Statistics totals (see Statistics).
 struct CounterTotals {
   std::uint64_t pair_queries = 0, contacts_found = 0, contacts_returned = 0;
+  CounterTotals& operator+=(const CounterTotals& o) {
+    pair_queries += o.pair_queries;
+    contacts_found += o.contacts_found;
+    contacts_returned += o.contacts_returned;
+    return *this;
+  }
 };
 
 class Registry {

@@ -52,10 +52,7 @@ ThreadCounters::ThreadCounters() {
 ThreadCounters::~ThreadCounters() {
   Registry& r = Registry::get();
   std::lock_guard<std::mutex> lock(r.counters_mutex);
-  const CounterTotals mine = load();
-  r.retired.pair_queries += mine.pair_queries;
-  r.retired.contacts_found += mine.contacts_found;
-  r.retired.contacts_returned += mine.contacts_returned;
+  r.retired += load();
   for (std::size_t i = 0; i < r.live_counters.size(); ++i)
     if (r.live_counters[i] == this) {
       r.live_counters[i] = r.live_counters.back();
@@ -228,37 +225,21 @@ Status checkSettings(const Settings& s) {
 
 }  // namespace
 
-Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
+namespace {
+
+// The trimesh geom's data and ODE's triangle count of it now.
+Status trimeshData(dGeomID trimesh, dTriMeshDataID& data, int& count) {
   if (trimesh == nullptr || dGeomGetClass(trimesh) != dTriMeshClass)
     return {ErrorCode::kMeshNotBuilt, "geom is not a trimesh"};
-  dTriMeshDataID data = dGeomTriMeshGetData(trimesh);
-  // The view's entry, unless ODE's data was rebuilt since (its triangle
-  // count moved): then the registry's check below rebuilds it.
-  const int count = dGeomTriMeshGetTriangleCount(trimesh);
-  for (auto& [d, entry] : ctx.view.meshes)
-    if (d == data && entry->ode_triangle_count == count) {
-      out = entry.get();
-      return Status::ok();
-    }
-  std::shared_ptr<const MeshEntry> entry;
-  Status s = meshFor(trimesh, entry);
-  if (!s) return s;
-  out = entry.get();
-  for (auto& [d, held] : ctx.view.meshes)
-    if (d == data) {
-      held = std::move(entry);
-      return Status::ok();
-    }
-  ctx.view.meshes.emplace_back(data, std::move(entry));
+  data = dGeomTriMeshGetData(trimesh);
+  if (data == nullptr) return {ErrorCode::kMeshNotBuilt, "trimesh geom has no dTriMeshDataID"};
+  count = dGeomTriMeshGetTriangleCount(trimesh);
   return Status::ok();
 }
 
-Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {
-  if (trimesh == nullptr || dGeomGetClass(trimesh) != dTriMeshClass)
-    return {ErrorCode::kMeshNotBuilt, "geom is not a trimesh"};
-  dTriMeshDataID data = dGeomTriMeshGetData(trimesh);
-  if (data == nullptr) return {ErrorCode::kMeshNotBuilt, "trimesh geom has no dTriMeshDataID"};
-  const int count = dGeomTriMeshGetTriangleCount(trimesh);
+// The registry's BVH of `data`, built (and cached) unless the cached one was
+// built at ODE's current triangle count.
+Status entryFor(dTriMeshDataID data, int count, std::shared_ptr<const MeshEntry>& out) {
   Registry& r = Registry::get();
   Arrays arrays;
   bool registered = false;
@@ -290,6 +271,41 @@ Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {
   r.meshes[data] = entry;
   out = std::move(entry);
   return Status::ok();
+}
+
+}  // namespace
+
+Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
+  dTriMeshDataID data;
+  int count;
+  Status s = trimeshData(trimesh, data, count);
+  if (!s) return s;
+  // The view's entry, unless ODE's data was rebuilt since (its triangle
+  // count moved): then the registry's is rebuilt.
+  for (auto& [d, entry] : ctx.view.meshes)
+    if (d == data && entry->ode_triangle_count == count) {
+      out = entry.get();
+      return Status::ok();
+    }
+  std::shared_ptr<const MeshEntry> entry;
+  s = entryFor(data, count, entry);
+  if (!s) return s;
+  out = entry.get();
+  for (auto& [d, held] : ctx.view.meshes)
+    if (d == data) {
+      held = std::move(entry);
+      return Status::ok();
+    }
+  ctx.view.meshes.emplace_back(data, std::move(entry));
+  return Status::ok();
+}
+
+Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {
+  dTriMeshDataID data;
+  int count;
+  const Status s = trimeshData(trimesh, data, count);
+  if (!s) return s;
+  return entryFor(data, count, out);
 }
 
 }  // namespace detail
@@ -475,12 +491,7 @@ namespace {
 // threads that exited, and those alive). Call with counters_mutex held.
 detail::CounterTotals allCounts(const Registry& r) {
   detail::CounterTotals t = r.retired;
-  for (const detail::ThreadCounters* c : r.live_counters) {
-    const detail::CounterTotals mine = c->load();
-    t.pair_queries += mine.pair_queries;
-    t.contacts_found += mine.contacts_found;
-    t.contacts_returned += mine.contacts_returned;
-  }
+  for (const detail::ThreadCounters* c : r.live_counters) t += c->load();
   return t;
 }
 
