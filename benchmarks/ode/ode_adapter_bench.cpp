@@ -34,6 +34,8 @@
 #include <meshcontact/ode.h>
 #include <meshcontact_peers/peers.h>
 
+#include "ode_sim.h"  // tests/ode: the tests' ODE helpers
+
 #include <benchmark/benchmark.h>
 #include <ode/ode.h>
 
@@ -108,10 +110,7 @@ void tearDown(const benchmark::State&) { closeOde(); }
 void place(dGeomID geom, const mc::Pose& pose) {
   dGeomSetPosition(geom, pose.translation.x(), pose.translation.y(), pose.translation.z());
   dMatrix3 R;
-  for (int a = 0; a < 3; ++a) {
-    for (int b = 0; b < 3; ++b) R[4 * a + b] = pose.rotation(a, b);
-    R[4 * a + 3] = 0;
-  }
+  mc::odetest::toOdeRotation(pose.rotation, R);
   dGeomSetRotation(geom, R);
 }
 

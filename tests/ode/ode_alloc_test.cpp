@@ -65,10 +65,7 @@ long allocationsInSecondPass(dGeomID shape) {
     for (std::size_t i = 0; i < positions.size(); ++i) {
       dGeomSetPosition(shape, positions[i].x(), positions[i].y(), positions[i].z());
       dMatrix3 R;
-      for (int a = 0; a < 3; ++a) {
-        for (int b = 0; b < 3; ++b) R[4 * a + b] = rotations[i](a, b);
-        R[4 * a + 3] = 0;
-      }
+      odetest::toOdeRotation(rotations[i], R);
       dGeomSetRotation(shape, R);
       dContactGeom c[32];
       contacts += dCollide(terrain.geom, shape, 32, c, sizeof(dContactGeom));

@@ -92,10 +92,7 @@ void collideAll(const Geoms& geoms, const std::vector<Placement>& placements, Re
       const Placement& p = placements[i];
       dGeomSetPosition(shape, p.position.x(), p.position.y(), p.position.z());
       dMatrix3 R;
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) R[4 * r + c] = p.rotation(r, c);
-        R[4 * r + 3] = 0;
-      }
+      odetest::toOdeRotation(p.rotation, R);
       dGeomSetRotation(shape, R);
       std::vector<Seen>& seen = out[k * placements.size() + i];
       for (std::size_t g = 0; g < geoms.ground.size(); ++g) {

@@ -39,10 +39,7 @@ Mat3 odeRotation(dGeomID g) {
 
 void setRotation(dGeomID g, const Mat3& r) {
   dMatrix3 R;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) R[4 * i + j] = r(i, j);
-    R[4 * i + 3] = 0;
-  }
+  odetest::toOdeRotation(r, R);
   dGeomSetRotation(g, R);
 }
 

@@ -60,6 +60,14 @@ inline const char* name(Mode m) {
   return "?";
 }
 
+/// A rotation as ODE's dMatrix3: three rows of four dReals, the fourth unused.
+inline void toOdeRotation(const Mat3& rotation, dMatrix3 out) {
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) out[4 * i + j] = rotation(i, j);
+    out[4 * i + 3] = 0;
+  }
+}
+
 /// dInitODE2 ... dCloseODE. The collider table is reset by dCloseODE, so a
 /// run in kNative mode after a kOverride run sees ODE's own colliders again.
 /// dWorldQuickStep reorders constraints with ODE's global random generator;
@@ -141,10 +149,7 @@ class World {
     dGeomSetBody(geom, b);
     dBodySetPosition(b, position.x(), position.y(), position.z());
     dMatrix3 R;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) R[4 * i + j] = rotation(i, j);
-      R[4 * i + 3] = 0;
-    }
+    toOdeRotation(rotation, R);
     dBodySetRotation(b, R);
     bodies_.push_back(b);
     stats_[b] = BodyStats();

@@ -244,10 +244,7 @@ class Soak {
 
   static void setRotation(dBodyID b, const Mat3& r) {
     dMatrix3 R;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) R[4 * i + j] = r(i, j);
-      R[4 * i + 3] = 0;
-    }
+    odetest::toOdeRotation(r, R);
     dBodySetRotation(b, R);
   }
 
