@@ -167,6 +167,16 @@ template <class BV>
   return ballOverlaps(bv, q.center, q.radius) && (q.ball_only || boundsOverlap(bv, q));
 }
 
+// Starts fetching both children of `node`, unless it is a leaf: they are
+// adjacent and large (an OBBRSS node is 256 bytes), and the walks are bound
+// by memory latency.
+template <class BV>
+inline void prefetchChildren(const ::fcl::BVHModel<BV>& m, const ::fcl::BVNode<BV>& node) {
+  if (isLeaf(node)) return;
+  const char* first = reinterpret_cast<const char*>(&m.getBV(leftChild(node)));
+  for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
+}
+
 // Collision checking: depth first, the child nearer the query's centre
 // first, each leaf's candidate handed to the visitor at once (the first
 // triangle in contact, any one, ends the check: the answer does not depend
@@ -184,10 +194,8 @@ Status visitNearestFirst(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, con
     const ::fcl::BVNode<BV>& node = m.getBV(id);
     if (!reaches(node.bv, q)) continue;
     if (!isLeaf(node)) {
-      // The children are adjacent and large (an OBBRSS node is 256 bytes);
-      // their centres are read now, the rest of them when they are tested.
-      const char* first = reinterpret_cast<const char*>(&m.getBV(leftChild(node)));
-      for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
+      // The children's centres are read now, the rest of them when they are tested.
+      prefetchChildren(m, node);
       int first_child = leftChild(node), second_child = rightChild(node);
       const double dl = (nodeCenter(m.getBV(first_child).bv) - q.center).squaredNorm();
       const double dr = (nodeCenter(m.getBV(second_child).bv) - q.center).squaredNorm();
@@ -222,16 +230,11 @@ Status gatherBreadthFirst(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, co
   // Reached children are written at the tail, two slots at a time: room for
   // both is made before each pair (the queue never holds more than the
   // model's nodes).
-  const auto prefetchChildren = [&m](const ::fcl::BVNode<BV>& node) {
-    if (isLeaf(node)) return;
-    const char* first = reinterpret_cast<const char*>(&m.getBV(leftChild(node)));
-    for (std::size_t offset = 0; offset < 2 * sizeof(node); offset += 64) __builtin_prefetch(first + offset);
-  };
   if (queue.size() < 2) queue.resize(64);
   std::size_t head = 0, tail = 0;
   if (reaches(m.getBV(0).bv, q)) {
     queue[tail++] = 0;
-    prefetchChildren(m.getBV(0));
+    prefetchChildren(m, m.getBV(0));
   }
   // The leaves' triangle ids, in the queue's consumed slots (leaves <= head
   // at every step, so no pending node is overwritten).
@@ -262,8 +265,8 @@ Status gatherBreadthFirst(const ::fcl::BVHModel<BV>& m, const QueryVolume& q, co
     tail += right_reached;
     queue[tail] = left;
     tail += left_reached;
-    if (right_reached) prefetchChildren(right_node);
-    if (left_reached) prefetchChildren(left_node);
+    if (right_reached) prefetchChildren(m, right_node);
+    if (left_reached) prefetchChildren(m, left_node);
   }
   const auto vertex_count = static_cast<std::size_t>(m.num_vertices);  // > 0 (checkModel)
   for (std::size_t i = 0; i < leaves; ++i) {
