@@ -121,6 +121,76 @@ TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
   }
 }
 
+// assignPositionKeysFromIndices, for midphases that know the corners'
+// vertex indices (the FCL adapter's walk), hashes a vertex once per run of
+// one mesh's candidates: its keys must be exactly assignPositionKeys' (same
+// numbers, as both number positions in the order first met), on the same
+// instances as above (equal indices at other positions under the terrain's
+// second pose), in the midphase's order and with the meshes interleaved
+// (an earlier mesh's run starts again), and with indices beyond the
+// cache's 32-bit tags.
+TEST(GatherNearSphere, PositionKeysFromIndicesAreThoseOfHashingEveryCorner) {
+  const TriangleMesh terrain = testing::buildMesh(scenes::sineTerrain(24, 24, 0.5, 0.4, 3.0, 7));
+  const TriangleMesh soup = testing::buildMesh(scenes::unweld(scenes::flatFloor(6, 6, 0.5, 10)));
+  Pose shifted;
+  shifted.rotation = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  shifted.translation = Vec3(12.0, 0.0, 0.25);
+  const std::vector<MeshInstance> instances{
+      {&terrain, Pose::identity()}, {&terrain, shifted}, {&soup, Pose::identity()}};
+  scenes::Rng rng(31);
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> gathered, hashed, indexed;
+  std::size_t reused = 0;  // corners whose vertex an earlier candidate of the run had
+  const int queries = testing::scaled(1000);
+  for (int i = 0; i < queries; ++i) {
+    const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
+                       rng.uniform(0.1, 1.2)};
+    ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexIndex, scratch,
+                                           gathered)
+                    .isOk());
+    if (i % 2 == 1) {  // interleaved: candidate j of the first half, then j of the second half, ...
+      std::vector<CandidateTriangle> mixed;
+      const std::size_t half = (gathered.size() + 1) / 2;
+      for (std::size_t j = 0; j < half; ++j) {
+        mixed.push_back(gathered[j]);
+        if (half + j < gathered.size()) mixed.push_back(gathered[half + j]);
+      }
+      gathered = mixed;
+    }
+    indexed = gathered;
+    for (CandidateTriangle& c : indexed) {
+      const std::uint32_t* tri = instances[c.mesh].mesh->triangle(c.triangle);
+      // Every fourth query: the indices shifted past 32 bits (no cache).
+      const std::uint64_t offset = i % 4 == 3 ? std::uint64_t{1} << 32 : 0;
+      for (int k = 0; k < 3; ++k) c.keys[k] = tri[k] + offset;
+    }
+    hashed = gathered;
+    ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
+    ASSERT_TRUE(assignPositionKeysFromIndices(indexed.data(), indexed.size(), scratch).isOk());
+    for (std::size_t j = 0; j < indexed.size(); ++j)
+      for (int k = 0; k < 3; ++k) {
+        ASSERT_EQ(indexed[j].keys[k], hashed[j].keys[k])
+            << "query " << i << ", triangle " << indexed[j].mesh << ":" << indexed[j].triangle << " corner " << k;
+        if (j > 0 && indexed[j - 1].mesh == indexed[j].mesh)
+          for (int l = 0; l < 3; ++l) reused += gathered[j - 1].keys[l] == gathered[j].keys[k];
+      }
+  }
+  EXPECT_GT(reused, 0u) << "no vertex shared by consecutive candidates: the cache was not exercised";
+
+  // A non-finite corner is an error, also where the cache would have the key.
+  std::vector<CandidateTriangle> bad(2);
+  for (CandidateTriangle& c : bad) {
+    c.vertices[0] = Vec3(0, 0, 0);
+    c.vertices[1] = Vec3(1, 0, 0);
+    c.vertices[2] = Vec3(0, 1, 0);
+    for (int k = 0; k < 3; ++k) c.keys[k] = static_cast<std::uint64_t>(k);
+  }
+  bad[1].vertices[0].x() = std::numeric_limits<double>::quiet_NaN();
+  const Status s = assignPositionKeysFromIndices(bad.data(), bad.size(), scratch);
+  EXPECT_EQ(s.code(), ErrorCode::kNonFiniteVertex) << s.message();
+  EXPECT_NE(s.message().find("candidate 1"), std::string::npos) << s.message();
+}
+
 TEST(GatherNearSphere, BadBallsAreErrors) {
   const TriangleMesh floor = testing::buildMesh(scenes::flatFloor(4, 4, 0.5, 9));
   const MeshInstance instance{&floor, Pose::identity()};

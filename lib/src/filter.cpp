@@ -33,6 +33,12 @@ Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle
   return Status::ok();
 }
 
+Status nonFiniteCorner(const CandidateTriangle& c, std::size_t i, int k) {
+  return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
+                                           ", triangle " + std::to_string(c.triangle) + ") corner " +
+                                           std::to_string(k) + " is not finite: " + detail::describe(c.vertices[k])};
+}
+
 }  // namespace
 
 Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
@@ -41,13 +47,36 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
   for (std::size_t i = 0; i < count; ++i) {
     CandidateTriangle& c = candidates[i];
     for (int k = 0; k < 3; ++k) {
-      if (!c.vertices[k].allFinite())
-        return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
-                                                 ", triangle " + std::to_string(c.triangle) + ") corner " +
-                                                 std::to_string(k) + " is not finite: " +
-                                                 detail::describe(c.vertices[k])};
+      if (!c.vertices[k].allFinite()) return nonFiniteCorner(c, i, k);
       const auto next = static_cast<std::uint32_t>(sc.positions.size());
       c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+    }
+  }
+  return Status::ok();
+}
+
+Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
+  QueryScratch::Impl& sc = scratch.impl();
+  sc.positions.reset(3 * count);
+  // A run of candidates of one mesh shares a generation of the index cache
+  // (scratch.h): a new mesh, or the return of an earlier one, starts a new
+  // run, so a cached key is only ever reused for the same (mesh, index).
+  std::uint64_t generation = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    CandidateTriangle& c = candidates[i];
+    if (i == 0 || c.mesh != candidates[i - 1].mesh) generation = sc.nextVertexKeyGeneration();
+    for (int k = 0; k < 3; ++k) {
+      // Every corner is checked, also those whose key the cache gives: a
+      // caller whose equal indices are not equal positions still gets the
+      // error for a non-finite corner.
+      if (!c.vertices[k].allFinite()) return nonFiniteCorner(c, i, k);
+      const std::uint64_t index = c.keys[k];
+      if (index <= 0xffffffffu) {
+        sc.vertexPositionKey(generation, static_cast<std::uint32_t>(index), c.vertices[k], c.keys[k]);
+      } else {  // beyond the cache's 32-bit tags: hashed every time (same key)
+        const auto next = static_cast<std::uint32_t>(sc.positions.size());
+        c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+      }
     }
   }
   return Status::ok();

@@ -123,14 +123,8 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     // overwritten here.
     out.reserve(out.size() + sc.hits.size());
     const std::uint64_t mesh_bits = static_cast<std::uint64_t>(m) << 32;
-    std::uint64_t generation = 0;  // this instance's tag in the vertex-key cache (scratch.h)
-    if (mode == KeyMode::kVertexPosition) {
-      if (++sc.vertex_key_generation == 0) {  // wrapped: stale tags could match again
-        for (QueryScratch::Impl::VertexKeySlot& slot : sc.vertex_keys) slot.tag = 0;
-        sc.vertex_key_generation = 1;
-      }
-      generation = static_cast<std::uint64_t>(sc.vertex_key_generation) << 32;
-    }
+    // This instance's tag in the vertex-key cache (scratch.h).
+    const std::uint64_t generation = mode == KeyMode::kVertexPosition ? sc.nextVertexKeyGeneration() : 0;
     // One instantiation per case (pose applied or not, position or index
     // keys): the per-vertex work branches only on the key cache.
     const auto append = [&](auto moved, auto by_position) {
@@ -148,17 +142,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
           if constexpr (decltype(by_position)::value) {
             // Equal indices of one instance are equal positions: a vertex
             // seen by an earlier candidate of this instance reuses its key.
-            const std::uint64_t tag = generation | tri[k];
-            QueryScratch::Impl::VertexKeySlot& slot =
-                sc.vertex_keys[tri[k] & (QueryScratch::Impl::kVertexKeySlots - 1)];
-            if (slot.tag == tag) {
-              c.keys[k] = slot.key;
-            } else {
-              const auto next = static_cast<std::uint32_t>(sc.positions.size());
-              c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
-              slot.tag = tag;
-              slot.key = c.keys[k];
-            }
+            sc.vertexPositionKey(generation, tri[k], c.vertices[k], c.keys[k]);
           } else {
             c.keys[k] = mesh_bits | tri[k];
           }

@@ -141,6 +141,71 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
   EXPECT_EQ(cache.size(), 0u);
 }
 
+// The walk of a model's own hierarchy keeps degenerate triangles (the
+// narrowphases find them degenerate themselves): they must give nothing, in
+// contacts, collision checking and the pass-through fallback. The terrain
+// with degenerate triangles added on its surface (a repeated corner; the
+// third corner at the midpoint of the other two; all three corners one)
+// against the terrain alone: the same contacts (the
+// added triangles come after the terrain's, so its triangle ids stand),
+// the same in-collision answers, including poses sunk through the surface.
+TEST(DropIn, DegenerateTrianglesGiveNothing) {
+  const SceneMesh plain = terrain();
+  SceneMesh with = plain;
+  std::size_t added = 0;
+  for (std::size_t t = 0; t < plain.triangleCount(); t += 3) {
+    const std::uint32_t a = plain.indices[3 * t], b = plain.indices[3 * t + 1];
+    const std::uint32_t mid = with.addVertex(0.5 * (plain.vertex(a) + plain.vertex(b)));
+    with.addTriangle(a, b, a);
+    with.addTriangle(a, b, mid);
+    with.addTriangle(b, b, b);
+    added += 3;
+  }
+  for (std::size_t t = plain.triangleCount(); t < with.triangleCount(); ++t)
+    ASSERT_TRUE(isDegenerateTriangle(with.vertex(with.indices[3 * t]), with.vertex(with.indices[3 * t + 1]),
+                                     with.vertex(with.indices[3 * t + 2])))
+        << "triangle " << t;
+  const auto plain_model = fclModel<::fcl::OBBRSSd>(plain);
+  const auto with_model = fclModel<::fcl::OBBRSSd>(with);
+  scenes::Rng rng(57);
+  fcl::Scratch scratch;
+  int with_contacts = 0, through = 0, candidates_added = 0;
+  const int poses = testing::scaled(300);
+  for (const ShapeCase& shape : allShapes()) {
+    const auto geometry = shape.make();
+    for (int i = 0; i < poses; ++i) {
+      const Pose mesh_pose = randomPose(rng, 2.0);
+      Pose local;
+      local.rotation = rng.rotation();
+      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.6, 0.7));
+      const Pose world = mesh_pose * local;
+      const auto reference = query(plain_model, mesh_pose, geometry, world, scratch);
+      const std::string config = std::string(shape.name) + " pose " + std::to_string(i) + " at " +
+                                 testing::str(local.translation) + " in the mesh frame";
+      EXPECT_EQ(compareContacts(query(with_model, mesh_pose, geometry, world, scratch), reference, 0.0), "") << config;
+      EXPECT_EQ(hits(with_model, mesh_pose, geometry, world, scratch), !reference.empty()) << "boolean " << config;
+      // Whether the degenerate triangles were walked at all, and how many
+      // contacts were the fallback's.
+      ::fcl::CollisionObjectd m(with_model, toTransform(mesh_pose)), s(geometry, toTransform(world));
+      ::fcl::CollisionResultd result;
+      fcl::Report with_report, plain_report;
+      ASSERT_TRUE(fcl::collide(&m, &s, contactsRequest(), result, fcl::Options(), scratch, &with_report).isOk());
+      ::fcl::CollisionObjectd pm(plain_model, toTransform(mesh_pose));
+      result.clear();
+      ASSERT_TRUE(fcl::collide(&pm, &s, contactsRequest(), result, fcl::Options(), scratch, &plain_report).isOk());
+      candidates_added += with_report.candidates > plain_report.candidates;
+      through += with_report.through_contacts > 0;
+      with_contacts += !reference.empty();
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+  std::printf("%zu degenerate triangles: walked in %d queries, %d with contacts, %d pass-through\n", added,
+              candidates_added, with_contacts, through);
+  EXPECT_GT(candidates_added, 7 * poses / 2) << "the degenerate triangles were rarely candidates";
+  EXPECT_GT(with_contacts, 7 * poses / 4) << "few poses had contacts to compare";
+  EXPECT_GT(through, 0) << "no pose exercised the pass-through fallback";
+}
+
 // --- Forwarding ----------------------------------------------------------------
 
 void expectForwarded(const ::fcl::CollisionObjectd& o1, const ::fcl::CollisionObjectd& o2,

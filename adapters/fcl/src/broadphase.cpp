@@ -165,7 +165,8 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     const TriangleMesh* compact = options.cache ? options.cache->impl().find(group_geometries[j]) : nullptr;
     if (compact) {
       // The core's midphase on the cached hierarchy, in the model frame,
-      // then mapped like the in-place walk (keys are set below for all).
+      // then mapped like the in-place walk; its keys are the vertex indices,
+      // as the walk's (position keys are set below for all).
       const MeshInstance instance{compact, Pose::identity()};
       s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.gathered);
       if (!s) return s;
@@ -181,7 +182,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
       if (!s) return s;
     }
   }
-  s = assignPositionKeys(sc.candidates.data(), sc.candidates.size(), sc.query);
+  s = assignPositionKeysFromIndices(sc.candidates.data(), sc.candidates.size(), sc.query);
   if (!s) return s;
   s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), options.settings,
                                 sc.query, sc.contacts);

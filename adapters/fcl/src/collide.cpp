@@ -128,6 +128,9 @@ bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTria
   const Vec3& a = c.vertices[0];
   if (depth < -band) return false;                                  // wholly in front of the plane: the pipeline had it
   if (n.dot(supportPoint(shape, pose, n) - a) < -band) return false;  // wholly behind: no overlap
+  // The walk keeps degenerate triangles (the narrowphases reject them):
+  // tested only here, for the few candidates that get this far.
+  if (isDegenerateTriangle(a, c.vertices[1], c.vertices[2])) return false;
   if (!confirm) return true;
   // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
   // before FCL's own test is asked: near misses straddle the planes of
@@ -147,14 +150,20 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
   for (std::size_t k = 0; k < count && !(first_overlap && found); ++k) {
     const CandidateTriangle& c = candidates[k];
     const Vec3& a = c.vertices[0];
-    const Vec3 n = normalizedOr((c.vertices[1] - a).cross(c.vertices[2] - a), Vec3::Zero());
-    if (n.isZero()) continue;
+    const Vec3 cross = (c.vertices[1] - a).cross(c.vertices[2] - a);
     // A sphere whose centre is in front of this triangle's plane and that
     // overlaps the triangle gets a contact from the core's narrowphase
     // (reference §4a: only a centre behind the plane is culled), and this
     // fallback runs only when the pipeline gave none: no overlap here. Tested
-    // first: it skips most of a sphere's candidates before any support call.
-    if (confirm && shape.kind == ShapeKind::kSphere && n.dot(pose.translation - a) > band) continue;
+    // first: it skips most of a sphere's candidates before any support call,
+    // and on the unnormalised normal (height > band as s > band |cross|,
+    // squared), before the division that normalising costs.
+    if (confirm && shape.kind == ShapeKind::kSphere) {
+      const double s = cross.dot(pose.translation - a);
+      if (s > 0.0 && s * s > band * band * cross.squaredNorm()) continue;
+    }
+    const Vec3 n = normalizedOr(cross, Vec3::Zero());
+    if (n.isZero()) continue;
     const Vec3 deepest = supportPoint(shape, pose, -n);
     const double depth = n.dot(a - deepest);  // how far the shape must move along n to clear the plane
     if (found && !(depth > out.depth || (depth == out.depth && c.triangle < out.triangle))) continue;
@@ -428,7 +437,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
     if (!s) return s;
     if (!checking) {
-      s = assignPositionKeys(sc.candidates.data(), sc.candidates.size(), sc.query);
+      s = assignPositionKeysFromIndices(sc.candidates.data(), sc.candidates.size(), sc.query);
       if (!s) return s;
     }
   }

@@ -203,9 +203,9 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 /// gatherCandidates selection less the triangles outside that ball, see
 /// model.cpp), with its vertices mapped by `to_query` (bitwise copies when
 /// it is the identity),
-/// mesh index `mesh_index`, keys unset. Degenerate triangles are skipped
-/// (as the core's midphase does: they have no normal). Errors:
-/// kIndexOutOfRange.
+/// mesh index `mesh_index`, keys = the corners' vertex indices (for
+/// assignPositionKeysFromIndices). Degenerate triangles are kept: the
+/// narrowphases and passesThrough() reject them. Errors: kIndexOutOfRange.
 /// Called on each candidate as the walk finds it; returning true stops the
 /// walk (collision checking stops at the first triangle in contact).
 class LeafVisitor {
@@ -241,7 +241,8 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
 /// The fallback's test on one candidate (unit normal n, `depth` = n . (a -
 /// the shape's deepest point along -n)): the shape crosses the triangle's
 /// plane and, with `confirm`, FCL's own two-sided test (its solver) finds
-/// them overlapping.
+/// them overlapping. False for a degenerate triangle (isDegenerateTriangle:
+/// its normal is noise).
 bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle& c, const Vec3& n,
                    double depth, const ::fcl::CollisionRequestd* confirm);
 

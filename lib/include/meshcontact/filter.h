@@ -4,6 +4,7 @@
 // library's per-triangle contacts):
 //
 //   external midphase -> CandidateTriangle[] -> assignPositionKeys()
+//                        (or assignPositionKeysFromIndices())
 //                     -> collide*Candidates()            (our narrowphase)
 //   external per-triangle contacts -> TrianglePatch[] -> filterPatches()
 //                                                        (the filter only)
@@ -30,6 +31,17 @@ namespace meshcontact {
 /// from `scratch`, which the next gatherCandidates / assignPositionKeys call
 /// reuses. Errors: kNonFiniteVertex (names the candidate and corner).
 Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch);
+
+/// assignPositionKeys() for a midphase that knows each corner's vertex index
+/// (a walk of an FCL BVHModel reads them from its triangle list): on entry,
+/// keys[k] is corner k's index in the vertex array of mesh `mesh`, and two
+/// corners with the same mesh and index must have bitwise-equal vertices
+/// (each mesh's vertices moved into the query frame by one pose); otherwise
+/// the keys are wrong. Gives the same keys as assignPositionKeys(), but a
+/// vertex shared by several candidates in a row of one mesh is hashed once,
+/// not once per candidate (a vertex of a tessellated floor is a corner of
+/// about six triangles). Errors: those of assignPositionKeys().
+Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch);
 
 /// One externally computed contact patch between the shape and one candidate
 /// triangle, in the query frame (the candidates' frame).
