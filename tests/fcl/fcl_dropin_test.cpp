@@ -524,6 +524,24 @@ TEST(DropInBadInput, TrianglesOrVertexCountEditedAfterEndModel) {
   b.model->num_vertices = vertex_count;
 }
 
+TEST(DropInBadInput, VertexEditedToNaNAfterEndModel) {
+  // vertices is a public member too: a vertex made NaN after endModel()
+  // leaves the hierarchy's volumes finite, so the walk reaches its
+  // triangles. They are reported (contacts: by the position keys; collision
+  // checking: by the check on each candidate), never skipped as if absent.
+  BadInput b;
+  for (int v = 0; v < b.model->num_vertices; ++v) b.model->vertices[v].x() = std::numeric_limits<double>::quiet_NaN();
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), at(Vec3(1, 1, 0.1)));
+  const ::fcl::CollisionRequestd checking(2, false);
+  for (const ::fcl::CollisionObjectd* shape : {&sphere, &box}) {
+    SCOPED_TRACE(shape == &sphere ? "sphere" : "box");
+    b.expectError(&mesh, shape, ErrorCode::kNonFiniteVertex, "not finite");
+    b.expectError(shape, &mesh, ErrorCode::kNonFiniteVertex, "non-finite vertex", checking);
+  }
+}
+
 TEST(DropInBadInput, PointCloudModel) {
   BadInput b;
   auto cloud = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <string>
 
@@ -157,10 +158,15 @@ bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTri
     // fallback runs only when the pipeline gave none: no overlap here. Tested
     // first: it skips most of a sphere's candidates before any support call,
     // and on the unnormalised normal (height > band as s > band |cross|,
-    // squared), before the division that normalising costs.
+    // squared), before the division that normalising costs. Only where
+    // band^2, |cross|^2 and their product are normal numbers: an underflow
+    // to zero or a subnormal would skip triangles the height test keeps (an
+    // overflow to Inf skips none).
     if (confirm && shape.kind == ShapeKind::kSphere) {
       const double s = cross.dot(pose.translation - a);
-      if (s > 0.0 && s * s > band * band * cross.squaredNorm()) continue;
+      const double band2 = band * band, cross2 = cross.squaredNorm(), limit = band2 * cross2;
+      constexpr double kNormal = std::numeric_limits<double>::min();
+      if (band2 >= kNormal && cross2 >= kNormal && limit >= kNormal && s > 0.0 && s * s > limit) continue;
     }
     const Vec3 n = normalizedOr(cross, Vec3::Zero());
     if (n.isZero()) continue;
@@ -325,6 +331,15 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     bool through = false;  // the hit is the pass-through fallback's (see below)
     Contact found;  // a support shape's hit, or the fallback's (see below)
     bool visit(const CandidateTriangle& c) override {
+      // The walk keeps every triangle its volume reaches (model.cpp): a
+      // vertex edited to NaN or Inf after endModel() is an error here, as
+      // assignPositionKeysFromIndices makes it for contacts.
+      for (int k = 0; k < 3; ++k)
+        if (!c.vertices[k].allFinite()) {
+          status = {ErrorCode::kNonFiniteVertex, "triangle " + std::to_string(c.triangle) + " corner " +
+                                                     std::to_string(k) + " has a non-finite vertex"};
+          return true;
+        }
       const Vec3 n = normalizedOr((c.vertices[1] - c.vertices[0]).cross(c.vertices[2] - c.vertices[0]), Vec3::Zero());
       if (n.isZero()) return false;
       const Vec3 lowest = detail::supportPoint(shape, pose, -n);

@@ -196,7 +196,8 @@ struct Report {
   Route route = Route::kMeshcontact;
   /// Triangles the model's BVH gave (collide; collision checking counts
   /// those it visited before its first hit) or FCL's raw result named
-  /// (postFilter).
+  /// (postFilter). Walking the model in place, degenerate triangles count
+  /// too (the narrowphases reject them); a ModelCache's hierarchy has none.
   std::size_t candidates = 0;
   /// Contacts meshcontact produced, before the num_max_contacts cut.
   std::size_t contacts = 0;
