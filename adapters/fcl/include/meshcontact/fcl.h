@@ -253,8 +253,9 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
 /// says why. It walks the model's own hierarchy; on large models the Status
 /// variant with Options::cache is faster for contacts, and for collision
 /// checking at scattered poses; along a path, where the model's nodes stay
-/// in the CPU's caches, collision checking is within 16% either way
-/// (benchmarks/fcl_bench.cpp: from 16% slower to 5% faster with the cache).
+/// in the CPU's caches, collision checking is as fast or faster without it
+/// (benchmarks/fcl_bench.cpp: with the cache from 2% faster to 37% slower,
+/// the sphere's check the most).
 std::size_t collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                     const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result);
 
