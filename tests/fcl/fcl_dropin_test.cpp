@@ -13,6 +13,27 @@ SceneMesh terrain() { return scenes::sineTerrain(10, 10, 0.5, 0.4, 3.0, 51); }
 
 ::fcl::CollisionRequestd contactsRequest() { return ::fcl::CollisionRequestd(1000, true); }
 
+// A random pose of a shape over terrain(): the mesh posed at random, the
+// shape at a random orientation over the terrain's interior, its height in
+// the mesh frame from z_lo (below the surface) to z_hi.
+struct TerrainPose {
+  Pose mesh;
+  Pose local;  // the shape in the mesh frame
+  Pose world;
+  std::string describe(const char* shape, int i) const {
+    return std::string(shape) + " pose " + std::to_string(i) + " at " + testing::str(local.translation) +
+           " in the mesh frame";
+  }
+};
+TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
+  TerrainPose p;
+  p.mesh = randomPose(rng, 2.0);
+  p.local.rotation = rng.rotation();
+  p.local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(z_lo, z_hi));
+  p.world = p.mesh * p.local;
+  return p;
+}
+
 // --- BV types ------------------------------------------------------------------
 
 template <class BV>
@@ -57,15 +78,12 @@ TEST(DropIn, EveryBvTypeGivesTheSameContacts) {
     const int poses = testing::scaled(shape.kind <= Kind::kBox ? 1000 : 250);
     total += poses;
     for (int i = 0; i < poses; ++i) {
-      const Pose mesh_pose = randomPose(rng, 2.0);
-      Pose local;
-      local.rotation = rng.rotation();
-      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.5, 0.7));
-      const Pose world = mesh_pose * local;
+      const TerrainPose p = terrainPose(rng, -0.5, 0.7);
+      const Pose& mesh_pose = p.mesh;
+      const Pose& world = p.world;
       const auto reference = query(obbrss, mesh_pose, geometry, world, scratch);
       with_contacts += !reference.empty();
-      const std::string config = std::string(shape.name) + " pose " + std::to_string(i) + " at " +
-                                 testing::str(local.translation) + " in the mesh frame";
+      const std::string config = p.describe(shape.name, i);
       EXPECT_EQ(compareContacts(query(aabb, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "AABB " << config;
       EXPECT_EQ(compareContacts(query(obb, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "OBB " << config;
       EXPECT_EQ(compareContacts(query(rss, mesh_pose, geometry, world, scratch), reference, 0.0), "") << "RSS " << config;
@@ -99,11 +117,8 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
   const int poses = testing::scaled(300);
   for (const ShapeCase& shape : allShapes()) {
     for (int i = 0; i < poses; ++i) {
-      const Pose mesh_pose = randomPose(rng, 2.0);
-      Pose local;
-      local.rotation = rng.rotation();
-      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.5, 0.7));
-      ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape.make(), toTransform(mesh_pose * local));
+      const TerrainPose p = terrainPose(rng, -0.5, 0.7);
+      ::fcl::CollisionObjectd m(model, toTransform(p.mesh)), s(shape.make(), toTransform(p.world));
       for (const auto& request : {contactsRequest(), ::fcl::CollisionRequestd(1, false)}) {
         ::fcl::CollisionResultd a, b;
         fcl::Report ra, rb;
@@ -174,14 +189,11 @@ TEST(DropIn, DegenerateTrianglesGiveNothing) {
   for (const ShapeCase& shape : allShapes()) {
     const auto geometry = shape.make();
     for (int i = 0; i < poses; ++i) {
-      const Pose mesh_pose = randomPose(rng, 2.0);
-      Pose local;
-      local.rotation = rng.rotation();
-      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.6, 0.7));
-      const Pose world = mesh_pose * local;
+      const TerrainPose p = terrainPose(rng, -0.6, 0.7);
+      const Pose& mesh_pose = p.mesh;
+      const Pose& world = p.world;
       const auto reference = query(plain_model, mesh_pose, geometry, world, scratch);
-      const std::string config = std::string(shape.name) + " pose " + std::to_string(i) + " at " +
-                                 testing::str(local.translation) + " in the mesh frame";
+      const std::string config = p.describe(shape.name, i);
       EXPECT_EQ(compareContacts(query(with_model, mesh_pose, geometry, world, scratch), reference, 0.0), "") << config;
       EXPECT_EQ(hits(with_model, mesh_pose, geometry, world, scratch), !reference.empty()) << "boolean " << config;
       // Whether the degenerate triangles were walked at all, and how many
@@ -378,11 +390,8 @@ TEST(DropIn, ArgumentOrderSwapsOnlyTheConvention) {
   fcl::Scratch scratch;
   for (const ShapeCase& shape : allShapes()) {
     for (int i = 0; i < testing::scaled(200); ++i) {
-      const Pose mesh_pose = randomPose(rng, 2.0);
-      Pose local;
-      local.rotation = rng.rotation();
-      local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.3, 0.6));
-      ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape.make(), toTransform(mesh_pose * local));
+      const TerrainPose p = terrainPose(rng, -0.3, 0.6);
+      ::fcl::CollisionObjectd m(model, toTransform(p.mesh)), s(shape.make(), toTransform(p.world));
       ::fcl::CollisionResultd a, b;
       ASSERT_TRUE(fcl::collide(&m, &s, contactsRequest(), a, fcl::Options(), scratch).isOk());
       ASSERT_TRUE(fcl::collide(&s, &m, contactsRequest(), b, fcl::Options(), scratch).isOk());
@@ -467,6 +476,24 @@ struct BadInput {
   return tf;
 }
 
+// A model edited so that the walk fails where it reaches a leaf: `code`,
+// with contacts (mesh first, the message holding `contacts_words`) and in
+// collision checking (shape first, `checking_words`), for a sphere and a box
+// below the surface (z = 0.3 at x = y = 1), where nodes and leaves are
+// reached. Checking asks for one more contact with contacts off
+// (expectError's result already holds one, so that one more is all the
+// room left).
+void expectWalkErrors(BadInput& b, const ::fcl::CollisionObjectd& mesh, ErrorCode code,
+                      const std::string& contacts_words, const std::string& checking_words) {
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), at(Vec3(1, 1, 0.1)));
+  for (const ::fcl::CollisionObjectd* shape : {&sphere, &box}) {
+    SCOPED_TRACE(shape == &sphere ? "sphere" : "box");
+    b.expectError(&mesh, shape, code, contacts_words);
+    b.expectError(shape, &mesh, code, checking_words, ::fcl::CollisionRequestd(2, false));
+  }
+}
+
 TEST(DropInBadInput, NullObjects) {
   BadInput b;
   ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3));
@@ -502,19 +529,12 @@ TEST(DropInBadInput, TrianglesOrVertexCountEditedAfterEndModel) {
     b.model->tri_indices[t].set(tri[0], tri[1], past_end);
   }
   ::fcl::CollisionObjectd mesh(b.model);
-  // Both below the surface (z = 0.3 at x = y = 1): nodes and leaves are reached.
-  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
-  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), at(Vec3(1, 1, 0.1)));
-  // Collision checking: one more contact wanted, contacts off (expectError's
-  // result already holds one contact, so that one more is all the room left).
-  const ::fcl::CollisionRequestd checking(2, false);
-  for (const ::fcl::CollisionObjectd* shape : {&sphere, &box}) {
-    SCOPED_TRACE(shape == &sphere ? "sphere" : "box");
-    b.expectError(&mesh, shape, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end));
-    b.expectError(shape, &mesh, ErrorCode::kIndexOutOfRange, "references vertex " + std::to_string(past_end), checking);
-  }
+  const std::string words = "references vertex " + std::to_string(past_end);
+  expectWalkErrors(b, mesh, ErrorCode::kIndexOutOfRange, words, words);
   // A vertex count edited to zero or below: refused before any walk (with
   // no vertices, FCL's getModelType() no longer says triangles).
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  const ::fcl::CollisionRequestd checking(2, false);
   const int vertex_count = b.model->num_vertices;
   for (const auto& [bad, words] : {std::pair<int, const char*>{0, "not a triangle model"}, {-1, "no vertices"}}) {
     b.model->num_vertices = bad;
@@ -532,14 +552,7 @@ TEST(DropInBadInput, VertexEditedToNaNAfterEndModel) {
   BadInput b;
   for (int v = 0; v < b.model->num_vertices; ++v) b.model->vertices[v].x() = std::numeric_limits<double>::quiet_NaN();
   ::fcl::CollisionObjectd mesh(b.model);
-  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
-  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4), at(Vec3(1, 1, 0.1)));
-  const ::fcl::CollisionRequestd checking(2, false);
-  for (const ::fcl::CollisionObjectd* shape : {&sphere, &box}) {
-    SCOPED_TRACE(shape == &sphere ? "sphere" : "box");
-    b.expectError(&mesh, shape, ErrorCode::kNonFiniteVertex, "not finite");
-    b.expectError(shape, &mesh, ErrorCode::kNonFiniteVertex, "non-finite vertex", checking);
-  }
+  expectWalkErrors(b, mesh, ErrorCode::kNonFiniteVertex, "not finite", "non-finite vertex");
 }
 
 TEST(DropInBadInput, PointCloudModel) {
