@@ -212,7 +212,4 @@ Status shapeInFrame(dGeomID shape, ThreadContext& ctx);
 void selectContacts(const std::vector<Contact>& contacts, int budget, std::vector<std::uint32_t>& chosen,
                     std::vector<double>& min_distance2);
 
-/// The registry's settings, read under its lock.
-Settings settingsSnapshot();
-
 }  // namespace meshcontact::ode::detail

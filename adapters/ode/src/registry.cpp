@@ -37,12 +37,6 @@ void report(const Status& status, dGeomID trimesh, dGeomID shape) {
   if (handler) handler(status, trimesh, shape, user);
 }
 
-Settings settingsSnapshot() {
-  Registry& r = Registry::get();
-  std::lock_guard<std::mutex> lock(r.mutex);
-  return r.settings;
-}
-
 ThreadCounters::ThreadCounters() {
   Registry& r = Registry::get();
   std::lock_guard<std::mutex> lock(r.counters_mutex);
@@ -280,23 +274,27 @@ Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
   int count;
   Status s = trimeshData(trimesh, data, count);
   if (!s) return s;
-  // The view's entry, unless ODE's data was rebuilt since (its triangle
-  // count moved): then the registry's is rebuilt.
+  // The view's entry of the data (it holds at most one), unless ODE's data
+  // was rebuilt since (its triangle count moved): then the registry's is
+  // rebuilt, and replaces it.
+  std::shared_ptr<const MeshEntry>* held = nullptr;
   for (auto& [d, entry] : ctx.view.meshes)
-    if (d == data && entry->ode_triangle_count == count) {
-      out = entry.get();
-      return Status::ok();
+    if (d == data) {
+      held = &entry;
+      break;
     }
+  if (held && (*held)->ode_triangle_count == count) {
+    out = held->get();
+    return Status::ok();
+  }
   std::shared_ptr<const MeshEntry> entry;
   s = entryFor(data, count, entry);
   if (!s) return s;
   out = entry.get();
-  for (auto& [d, held] : ctx.view.meshes)
-    if (d == data) {
-      held = std::move(entry);
-      return Status::ok();
-    }
-  ctx.view.meshes.emplace_back(data, std::move(entry));
+  if (held)
+    *held = std::move(entry);
+  else
+    ctx.view.meshes.emplace_back(data, std::move(entry));
   return Status::ok();
 }
 
@@ -323,7 +321,11 @@ Status setSettings(const Settings& settings) {
   return Status::ok();
 }
 
-Settings currentSettings() { return detail::settingsSnapshot(); }
+Settings currentSettings() {
+  Registry& r = Registry::get();
+  std::lock_guard<std::mutex> lock(r.mutex);
+  return r.settings;
+}
 
 namespace {
 Status registerArrays(dTriMeshDataID data, const detail::Arrays& arrays) {
