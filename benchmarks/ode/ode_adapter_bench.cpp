@@ -109,9 +109,7 @@ void tearDown(const benchmark::State&) { closeOde(); }
 
 void place(dGeomID geom, const mc::Pose& pose) {
   dGeomSetPosition(geom, pose.translation.x(), pose.translation.y(), pose.translation.z());
-  dMatrix3 R;
-  mc::odetest::toOdeRotation(pose.rotation, R);
-  dGeomSetRotation(geom, R);
+  mc::odetest::setGeomRotation(geom, pose.rotation);
 }
 
 // dCollide(trimesh, shape) on this thread's own geoms (ODE's trimesh

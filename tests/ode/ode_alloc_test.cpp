@@ -64,9 +64,7 @@ long allocationsInSecondPass(dGeomID shape) {
   auto pass = [&] {
     for (std::size_t i = 0; i < positions.size(); ++i) {
       dGeomSetPosition(shape, positions[i].x(), positions[i].y(), positions[i].z());
-      dMatrix3 R;
-      odetest::toOdeRotation(rotations[i], R);
-      dGeomSetRotation(shape, R);
+      odetest::setGeomRotation(shape, rotations[i]);
       dContactGeom c[32];
       contacts += dCollide(terrain.geom, shape, 32, c, sizeof(dContactGeom));
       for (dGeomID t : tile_geoms) contacts += dCollide(shape, t, 32, c, sizeof(dContactGeom));

@@ -91,9 +91,7 @@ void collideAll(const Geoms& geoms, const std::vector<Placement>& placements, Re
     for (std::size_t i = 0; i < placements.size(); ++i) {
       const Placement& p = placements[i];
       dGeomSetPosition(shape, p.position.x(), p.position.y(), p.position.z());
-      dMatrix3 R;
-      odetest::toOdeRotation(p.rotation, R);
-      dGeomSetRotation(shape, R);
+      odetest::setGeomRotation(shape, p.rotation);
       std::vector<Seen>& seen = out[k * placements.size() + i];
       for (std::size_t g = 0; g < geoms.ground.size(); ++g) {
         const int n = dCollide(shape, geoms.ground[g], kMaxContacts, buffer, sizeof(dContactGeom));

@@ -37,12 +37,6 @@ Mat3 odeRotation(dGeomID g) {
   return m;
 }
 
-void setRotation(dGeomID g, const Mat3& r) {
-  dMatrix3 R;
-  odetest::toOdeRotation(r, R);
-  dGeomSetRotation(g, R);
-}
-
 // A trimesh geom over registered (exact) arrays, optionally posed.
 struct OdeMesh {
   std::vector<double> vertices;
@@ -155,7 +149,7 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
   OdeMesh om(scene);
   const Pose pose = meshPose();
   dGeomSetPosition(om.geom, pose.translation.x(), pose.translation.y(), pose.translation.z());
-  setRotation(om.geom, pose.rotation);
+  odetest::setGeomRotation(om.geom, pose.rotation);
   TriangleMesh mesh;
   ASSERT_TRUE(mesh.build(scene.vertices, scene.indices).isOk());
   const QuerySettings settings = ode::currentSettings().query;
@@ -178,7 +172,7 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
       const Vec3 local(rng.uniform(-0.8, 0.8), rng.uniform(-1.0, 1.0), rng.uniform(0.0, 0.5 + sc.reach));
       const Vec3 world = pose.apply(local);
       dGeomSetPosition(shape, world.x(), world.y(), world.z());
-      setRotation(shape, rng.rotation());
+      odetest::setGeomRotation(shape, rng.rotation());
       std::vector<Contact> expected;
       // MESHCONTACT_ODE_TEST_VERBOSE=1 prints each pose before the query (to
       // find the configuration of a query that does not return).
@@ -238,7 +232,7 @@ TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
   const scenes::SceneMesh scene = scenes::step(1.5, 0.5, 0.5, 11);
   OdeMesh om(scene);
   const Mat3 rotation = testing::rotationAtValidationTolerance();
-  setRotation(om.geom, rotation);
+  odetest::setGeomRotation(om.geom, rotation);
   ASSERT_GT((rotation * Vec3(1, 1, 1).normalized()).norm() - 1.0, 1e-9);  // the error the adapter must not pass on
   for (dGeomID shape : {dCreateSphere(nullptr, 0.3), dCreateBox(nullptr, 0.5, 0.4, 0.3)}) {
     scenes::Rng rng(99);
@@ -272,7 +266,7 @@ TEST(OdeConventions, BudgetKeepsDeepestThenSpreadAndHonoursSkip) {
   OdeMesh om(scenes::flatFloor(8, 8, 0.5, 3));
   dGeomID box = dCreateBox(nullptr, 1.2, 0.9, 0.4);
   dGeomSetPosition(box, 2.1, 1.9, 0.19);
-  setRotation(box, Eigen::AngleAxisd(0.02, Vec3(1, 2, 0).normalized()).toRotationMatrix());
+  odetest::setGeomRotation(box, Eigen::AngleAxisd(0.02, Vec3(1, 2, 0).normalized()).toRotationMatrix());
 
   dContact all[128];
   const int n = dCollide(om.geom, box, 128, &all[0].geom, sizeof(dContact));

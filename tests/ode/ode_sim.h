@@ -68,6 +68,13 @@ inline void toOdeRotation(const Mat3& rotation, dMatrix3 out) {
   }
 }
 
+/// dGeomSetRotation from a rotation matrix.
+inline void setGeomRotation(dGeomID geom, const Mat3& rotation) {
+  dMatrix3 R;
+  toOdeRotation(rotation, R);
+  dGeomSetRotation(geom, R);
+}
+
 /// dInitODE2 ... dCloseODE. The collider table is reset by dCloseODE, so a
 /// run in kNative mode after a kOverride run sees ODE's own colliders again.
 /// dWorldQuickStep reorders constraints with ODE's global random generator;
