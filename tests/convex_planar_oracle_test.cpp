@@ -40,19 +40,6 @@ ConvexHull hull32(std::uint64_t seed, double radius) {
   return hull;
 }
 
-bool sameBits(const std::vector<Contact>& a, const std::vector<Contact>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const Contact &x = a[i], &y = b[i];
-    if (std::memcmp(x.point.data(), y.point.data(), sizeof(double) * 3) != 0 ||
-        std::memcmp(x.normal.data(), y.normal.data(), sizeof(double) * 3) != 0 ||
-        std::memcmp(&x.depth, &y.depth, sizeof(double)) != 0 || x.mesh != y.mesh || x.triangle != y.triangle ||
-        x.feature != y.feature)
-      return false;
-  }
-  return true;
-}
-
 // Placements are split by how deep the shape's lowest point is below the
 // plane: not at all (separated, within the contact distance), by less than
 // the shape's margin (its core is clear of the floor: the common case), or
@@ -175,7 +162,7 @@ OracleStats planarOracle(const std::vector<MeshInstance>& instances, const Suppo
       EXPECT_TRUE(collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings, scratch,
                                           shuffled_contacts)
                       .isOk());
-      if (!sameBits(base, shuffled_contacts) || !sameBits(base, contacts)) {
+      if (!testing::bitwiseEqual(base, shuffled_contacts) || !testing::bitwiseEqual(base, contacts)) {
         ++st.permutation;
         if (reported++ < 5)
           ADD_FAILURE() << name << " placement " << i << ": result depends on the candidates' order; pose "

@@ -10,6 +10,7 @@
 #include <meshcontact/convex.h>
 
 #include "../lib/src/capsule_segment.h"
+#include "../lib/src/convex_passes.h"
 
 #include <ccd/ccd.h>
 
@@ -537,6 +538,87 @@ Pose lyingAlongY(const Vec3& centre) {
   p.rotation = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix();  // local z -> -y
   p.translation = centre;
   return p;
+}
+
+// ---------------------------------------------------------------------------
+// Deep penetration: a pass of the shrunk core that a triangle certainly
+// voids (the scaled core clearly crosses its plane inside it) is skipped.
+// That must change nothing: every query's status and contacts, bit for bit,
+// are those of running every pass until its own narrowphase finds it void.
+
+// Forwards to a shape and counts its support calls (shared: the queries are const).
+struct CountingShape final : SupportShape {
+  const SupportShape& inner;
+  mutable long calls = 0;
+  explicit CountingShape(const SupportShape& s) : inner(s) {}
+  Vec3 support(const Vec3& d) const override {
+    ++calls;
+    return inner.support(d);
+  }
+  double margin() const override { return inner.margin(); }
+  Vec3 center() const override { return inner.center(); }
+  int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
+  Status validate() const override { return inner.validate(); }
+};
+
+TEST(ConvexDeepPasses, SkippingPassesProvedVoidChangesNothing) {
+  const SceneMesh scenes_[] = {scenes::flatFloor(8, 8, 0.5, 21), scenes::sineTerrain(8, 8, 0.5, 0.4, 3.0, 22),
+                               scenes::step(2.0, 1.0, 0.5, 23)};
+  const CylinderShape cylinder(Cylinder{0.25, 0.2});
+  const ConvexHull hull = hull32(24, 0.3);
+  const ConvexHull sharp = hull32(25, 0.3, 0.0);  // margin 0: every penetration is deep
+  const SupportShape* shapes[] = {&cylinder, &hull, &sharp};
+  scenes::Rng rng(26);
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> candidates;
+  std::vector<Contact> skipped, every;
+  for (const SceneMesh& scene : scenes_) {
+    const TriangleMesh mesh = testing::buildMesh(scene);
+    const Vec3 lo = mesh.boundsLo(), hi = mesh.boundsHi();
+    for (const SupportShape* inner : shapes) {
+      const CountingShape shape(*inner);
+      long calls_skipped = 0, calls_every = 0;
+      int differing_work = 0;
+      const int placements = testing::scaled(1500);
+      for (int i = 0; i < placements; ++i) {
+        Pose pose;
+        pose.rotation = rng.rotation();
+        // Over the scene, from just clear of its top down to 0.3 below its
+        // bottom: most placements are deep, many of them very deep.
+        pose.translation = Vec3(rng.uniform(lo.x() + 0.5, hi.x() - 0.5), rng.uniform(lo.y() + 0.5, hi.y() - 0.5),
+                                rng.uniform(lo.z() - 0.3, hi.z() + 0.1));
+        QuerySettings settings;
+        settings.contact_distance = i % 3 == 0 ? 0.02 : 0.0;
+        Vec3 box_lo, box_hi;
+        for (int k = 0; k < 3; ++k) {
+          box_hi[k] = pose.apply(shape.shapeSupport(pose.rotation.transpose() * Vec3::Unit(k)))[k];
+          box_lo[k] = pose.apply(shape.shapeSupport(pose.rotation.transpose() * -Vec3::Unit(k)))[k];
+        }
+        const MeshInstance instance{&mesh, Pose::identity()};
+        const Vec3 reach = Vec3::Constant(settings.contact_distance);
+        ASSERT_TRUE(gatherCandidates(&instance, 1, box_lo - reach, box_hi + reach, settings.key_mode, scratch,
+                                     candidates)
+                        .isOk());
+        shape.calls = 0;
+        const Status a = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
+                                                         scratch, skipped, true);
+        const long with_skip = shape.calls;
+        shape.calls = 0;
+        const Status b = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
+                                                         scratch, every, false);
+        calls_skipped += with_skip;
+        calls_every += shape.calls;
+        differing_work += with_skip != shape.calls;
+        ASSERT_EQ(a.code(), b.code()) << "placement " << i << ": " << a.message() << " / " << b.message();
+        ASSERT_TRUE(testing::bitwiseEqual(skipped, every))
+            << "placement " << i << ": " << skipped.size() << " contacts with passes skipped, " << every.size()
+            << " with every pass; pose " << str(pose.translation);
+      }
+      // The skip is exercised (not a test of nothing), and only ever saves work.
+      EXPECT_GT(differing_work, placements / 10);
+      EXPECT_LT(calls_skipped, calls_every);
+    }
+  }
 }
 
 const Vec3 kUp = Vec3::UnitZ();

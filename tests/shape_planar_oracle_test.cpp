@@ -30,6 +30,7 @@ const int kPlacements = testing::scaled(10000);  // per shape and per floor
 const int kFramePlacements = testing::scaled(2500);  // per shape and floor in each non-unit frame
 
 using testing::Frame;
+using testing::bitwiseEqual;
 
 Pose poseFrom(const Mat3& r, const Vec3& t) {
   Pose p;
@@ -39,19 +40,6 @@ Pose poseFrom(const Mat3& r, const Vec3& t) {
 }
 
 Mat3 yaw(double a) { return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix(); }
-
-bool bitwiseEqual(const std::vector<Contact>& a, const std::vector<Contact>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const Contact &x = a[i], &y = b[i];
-    if (std::memcmp(x.point.data(), y.point.data(), 3 * sizeof(double)) != 0 ||
-        std::memcmp(x.normal.data(), y.normal.data(), 3 * sizeof(double)) != 0 ||
-        std::memcmp(&x.depth, &y.depth, sizeof(double)) != 0 || x.mesh != y.mesh || x.triangle != y.triangle ||
-        x.feature != y.feature)
-      return false;
-  }
-  return true;
-}
 
 // The two floors: one welded mesh, and the same floor as 16 tiles, both
 // moved into `frame` (the floor plane is z = frame.offset).

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -21,6 +22,22 @@ inline int scaled(int placements) {
   const double scale = env ? std::atof(env) : 1.0;
   if (!(scale > 0.0) || scale >= 1.0) return placements;
   return std::max(100, static_cast<int>(placements * scale));
+}
+
+/// Whether two contact lists are equal bit for bit (points, normals, depths,
+/// triangles, features, in order): the determinism and order-independence
+/// checks, which no tolerance may blur.
+inline bool bitwiseEqual(const Contact& x, const Contact& y) {
+  return std::memcmp(x.point.data(), y.point.data(), 3 * sizeof(double)) == 0 &&
+         std::memcmp(x.normal.data(), y.normal.data(), 3 * sizeof(double)) == 0 &&
+         std::memcmp(&x.depth, &y.depth, sizeof(double)) == 0 && x.mesh == y.mesh && x.triangle == y.triangle &&
+         x.feature == y.feature;
+}
+inline bool bitwiseEqual(const std::vector<Contact>& a, const std::vector<Contact>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!bitwiseEqual(a[i], b[i])) return false;
+  return true;
 }
 
 /// A rotation at the edge of what the core's validation accepts (every entry

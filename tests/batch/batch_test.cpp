@@ -20,8 +20,6 @@ namespace {
 using scenes::Rng;
 using testing::str;
 
-bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), 3 * sizeof(double)) == 0; }
-
 std::string describe(const BatchQuery& q) {
   std::ostringstream s;
   s.precision(17);
@@ -69,9 +67,7 @@ void expectEqual(const Sequential& seq, const BatchOutput& out, const std::vecto
     for (std::size_t k = 0; same && k < seq.contacts[i].size(); ++k) {
       const Contact& a = out.contactsOf(i)[k];
       const Contact& b = seq.contacts[i][k];
-      same = sameBits(a.point, b.point) && sameBits(a.normal, b.normal) &&
-             std::memcmp(&a.depth, &b.depth, sizeof(double)) == 0 && a.mesh == b.mesh && a.triangle == b.triangle &&
-             a.feature == b.feature;
+      same = testing::bitwiseEqual(a, b);
     }
     if (!same) {
       ++reported;
