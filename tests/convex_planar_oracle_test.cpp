@@ -15,7 +15,6 @@
 #include <meshcontact/convex.h>
 
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <sstream>
 

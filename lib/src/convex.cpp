@@ -51,7 +51,8 @@
 //    GJK there) is not run. The first pass notes such passes from the
 //    support points it already has, and checks the triangles it never
 //    reached; on random poses over a floor that cut a cylinder query by
-//    10-20%. The tests compare against running every pass (convex_passes.h).
+//    10-20%. The tests compare against GJK on every triangle and every pass
+//    (convex_passes.h): the same contacts, bit for bit.
 
 #include "meshcontact/convex.h"
 
@@ -70,7 +71,6 @@
 #include <cmath>
 #include <limits>
 #include <string>
-#include <type_traits>
 
 namespace meshcontact {
 
@@ -438,7 +438,8 @@ struct SideMonitor {
 };
 
 // kChecking: collision checking's instance (ConvexContactProbe), with the
-// shortcuts below; the contacts path's instance has none of their code.
+// predict_contact shortcut below; the contacts path's instance has none of
+// its code.
 template <bool kChecking>
 struct ConvexNarrowphase {
   const SupportShape* shape;
@@ -450,10 +451,13 @@ struct ConvexNarrowphase {
   double scale;  // of the core about the center: 1, then smaller under deep penetration
   double radius; // of the core about the center (an upper bound)
   Counters* counters;
-  // Collision checking (ConvexContactProbe): a core that clearly meets the
-  // triangle is taken as intersecting without running GJK; with
-  // `predict_contact` too, a deeper pass whose outcome is certainly a
-  // contact stops where GJK would start (see touches()).
+  // A core that clearly meets the triangle is taken as intersecting without
+  // running GJK, and the first pass notes the deeper passes that are
+  // certainly void (crossingBits): the queries' setting; off, GJK decides
+  // and every pass runs (convex_passes.h). Collision checking
+  // (ConvexContactProbe) with `predict_contact` too: a deeper pass whose
+  // outcome is certainly a contact stops where GJK would start (see
+  // touches()).
   bool predict_intersection = false;
   bool predict_contact = false;
 
@@ -514,7 +518,7 @@ struct ConvexNarrowphase {
     }
     // The first pass notes the deeper passes this triangle certainly voids
     // (none when K is in front of the plane: so are its scaled copies).
-    if ((!kChecking || predict_intersection) && scale == 1.0 && gap < 0.0)
+    if (predict_intersection && scale == 1.0 && gap < 0.0)
       if (const int bits = crossingBits(tri, n, low, high)) counters->void_deeper |= withinReachBits(bits, q, w, far_w);
 
     // Deep pass: the face-ownership rule. The triangle under the full
@@ -536,7 +540,7 @@ struct ConvexNarrowphase {
       return facePatch(tri, n, low_full - margin * n, scale == 1.0, p);
     }
 
-    if ((!kChecking || predict_intersection) && gap < 0.0 && clearlyIntersects(tri, n, low, gap, high, top)) {
+    if (predict_intersection && gap < 0.0 && clearlyIntersects(tri, n, low, gap, high, top)) {
       // What GJK would find (below): the core touches the triangle. The
       // scaled core lies in the full shape, which then meets the
       // triangle by at least the tolerance.
@@ -684,25 +688,24 @@ struct ConvexNarrowphase {
   }
 
   // Both parts for a candidate the first pass skipped (it was void before
-  // its turn). Its support calls go through a counter of their own: a
-  // non-finite point here sets no bit and leaves the passes to report it.
+  // its turn). A non-finite support point here is the query's error, as
+  // anywhere else (convex.h).
   int deeperVoidBits(const CandidateTriangle& t) const {
     const Vec3* tri = t.vertices;
     const Vec3 &a = tri[0], &b = tri[1], &c = tri[2];
     const detail::ScaledEdges scaled = detail::scaledEdges(a, b, c);
     if (scaled.degenerate) return 0;
     const Vec3 n = scaled.unitNormal();
-    Counters own;
-    const PlacedCore full{shape, &pose.rotation, pose.translation, center, 1.0, &own};
+    const PlacedCore full{shape, &pose.rotation, pose.translation, center, 1.0, counters};
     const Vec3 low_full = full(-n);
     // In front of the plane, the core's scaled copies are too; the plane's reach.
     if (!(n.dot(low_full - a) < 0.0) || n.dot(low_full - a) - margin > contact_distance) return 0;
     const int bits = crossingBits(tri, n, low_full, full(n));
-    if (bits == 0 || own.support_not_finite) return 0;
+    if (bits == 0 || counters->support_not_finite) return 0;
     const Vec3 q = closestPointOnTriangle(center, a, b, c).point;
     const Vec3 w = normalizedOr(center - q, n);
     const Vec3 far_w = full(-w);
-    if (own.support_not_finite) return 0;
+    if (counters->support_not_finite) return 0;
     return withinReachBits(bits, q, w, far_w);
   }
 
@@ -898,12 +901,13 @@ double coreRadius(const Vec3& lo, const Vec3& hi, const Vec3& center) {
 
 Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
                      const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
-                     QueryScratch& scratch, std::vector<Contact>& contacts, bool skip_void_passes) {
+                     QueryScratch& scratch, std::vector<Contact>& contacts, bool shortcuts) {
   Counters counters;
   const double size = (hi - lo).norm();
   const double radius = coreRadius(lo, hi, center);
   ConvexNarrowphase<false> narrowphase{&shape, pose, shape.margin(), settings.contact_distance, size, center, 1.0, radius,
                                 &counters};
+  narrowphase.predict_intersection = shortcuts;
   QueryScratch::Impl& sc = scratch.impl();
   // Deep penetration: the same query with the core shrunk toward its center
   // (convex.h); the last scale, the center itself, never intersects.
@@ -916,11 +920,14 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     counters.core_intersects = false;
     detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
     if (counters.support_not_finite || !counters.core_intersects) break;
-    if (!skip_void_passes) counters.void_deeper = 0;
-    else if (scale == 1.0 && counters.intersecting != nullptr)  // the candidates the first pass skipped
+    // The candidates the first pass skipped: those after the one that voided
+    // it (generateContacts hands the narrowphase the caller's candidates in
+    // order, and each one after that returns at once).
+    if (shortcuts && scale == 1.0 && counters.intersecting != nullptr)
       for (std::size_t i = static_cast<std::size_t>(counters.intersecting - candidates) + 1;
-           i < count && counters.void_deeper != 3; ++i)
+           i < count && counters.void_deeper != 3 && !counters.support_not_finite; ++i)
         counters.void_deeper |= narrowphase.deeperVoidBits(candidates[i]);
+    if (counters.support_not_finite) break;
   }
   if (counters.support_not_finite) {
     contacts.clear();
@@ -1021,7 +1028,7 @@ Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, cons
 
 Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                        std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                                       std::vector<Contact>& contacts, bool skip_void_passes) {
+                                       std::vector<Contact>& contacts, bool shortcuts) {
   contacts.clear();
   if (settings.trace) settings.trace->clear();
   Status s = checkCommon(shape, pose, settings);
@@ -1029,7 +1036,7 @@ Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& po
   Vec3 lo, hi, center;
   s = shapeBounds(shape, pose, lo, hi, center);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, scratch, contacts, skip_void_passes);
+  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, scratch, contacts, shortcuts);
 }
 
 Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,

@@ -11,7 +11,6 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 namespace meshcontact {

@@ -39,7 +39,8 @@
 //     that point, so the deepest contact carries the true depth. A shape
 //     whose center passed behind a triangle's plane gets no contact from
 //     that triangle, exactly like a sphere whose centre did. The deep path
-//     costs one more pass over the candidates per halving (2-4x a resting
+//     costs one more pass over the candidates per halving, less the passes
+//     that a triangle the core clearly crosses proves void (2-4x a resting
 //     query).
 // Then the voided-features filter (reference §5) and the optional manifold
 // reduction (QuerySettings::reduce_manifold).
@@ -68,7 +69,9 @@ namespace meshcontact {
 ///   always finite, but is not necessarily unit length. Ties may be broken
 ///   any way, but the same d must always give the same point (results must
 ///   not depend on call history). A non-finite result is reported as
-///   ErrorCode::kInvalidShape, never turned into a contact.
+///   ErrorCode::kInvalidShape, never turned into a contact (a query asks
+///   for the directions it needs, not for every one: a support function
+///   that fails only along some directions may go unnoticed).
 /// - margin() is finite and >= 0. A user shape with margin 0 (the default)
 ///   is its own core: shallow contact then already needs the deep
 ///   penetration path (convex.cpp), which is exact for a ball but shrinks
