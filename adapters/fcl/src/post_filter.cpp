@@ -42,6 +42,7 @@ Status rawTriangle(const ::fcl::Contactd& rc, std::size_t i, const MeshDesc& mes
       return {ErrorCode::kIndexOutOfRange, "triangle " + std::to_string(t) + " references vertex " + std::to_string(v) +
                                                " of a model with " + std::to_string(vertex_count) + " vertices"};
     c.vertices[k] = vertices[v];
+    c.keys[k] = v;  // the vertex index, for assignPositionKeysFromIndices
   }
   return Status::ok();
 }
@@ -149,7 +150,7 @@ Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjec
     sc.gathered_patches.push_back(sc.patches[i]);
   }
   rep.candidates = sc.gathered.size();
-  s = assignPositionKeys(sc.gathered.data(), sc.gathered.size(), sc.query);
+  s = assignPositionKeysFromIndices(sc.gathered.data(), sc.gathered.size(), sc.query);
   if (!s) return s;
 
   if (classify) {
