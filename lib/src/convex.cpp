@@ -380,6 +380,9 @@ struct Counters {
   // (ConvexNarrowphase::crossingBits): runCandidates skips them.
   const CandidateTriangle* intersecting = nullptr;
   int void_deeper = 0;
+  bool certainlyVoid(double scale) const {
+    return (scale == 0.5 && (void_deeper & 1)) || (scale == 0.25 && (void_deeper & 2));
+  }
   // Collision checking (ConvexNarrowphase::predict): the full shape was
   // found meeting the triangle, and then, in a deeper pass, a contact.
   bool full_meets = false;
@@ -916,7 +919,7 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     // Passes certainly void (Counters::void_deeper) are skipped: each would
     // end as soon as it reached the triangle that voids it, at the price of
     // every triangle before it.
-    if ((scale == 0.5 && (counters.void_deeper & 1)) || (scale == 0.25 && (counters.void_deeper & 2))) continue;
+    if (counters.certainlyVoid(scale)) continue;
     narrowphase.scale = scale;
     counters.core_intersects = false;
     detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
@@ -1001,7 +1004,7 @@ Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predi
   detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
   for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
     // As in runCandidates: the passes the first one proved void are skipped.
-    if ((scale == 0.5 && (counters.void_deeper & 1)) || (scale == 0.25 && (counters.void_deeper & 2))) continue;
+    if (counters.certainlyVoid(scale)) continue;
     narrowphase.scale = scale;
     counters.core_intersects = false;
     p.face_count = 0;

@@ -48,8 +48,7 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
     CandidateTriangle& c = candidates[i];
     for (int k = 0; k < 3; ++k) {
       if (!c.vertices[k].allFinite()) return nonFiniteCorner(c, i, k);
-      const auto next = static_cast<std::uint32_t>(sc.positions.size());
-      c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+      c.keys[k] = sc.positionKeyOf(c.vertices[k]);
     }
   }
   return Status::ok();
@@ -74,8 +73,7 @@ Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t 
       if (index <= 0xffffffffu) {
         sc.vertexPositionKey(generation, static_cast<std::uint32_t>(index), c.vertices[k], c.keys[k]);
       } else {  // beyond the cache's 32-bit tags: hashed every time (same key)
-        const auto next = static_cast<std::uint32_t>(sc.positions.size());
-        c.keys[k] = sc.positions.insert(detail::positionKey(c.vertices[k].data()), next);
+        c.keys[k] = sc.positionKeyOf(c.vertices[k]);
       }
     }
   }

@@ -30,6 +30,12 @@ struct QueryScratch::Impl {
   static_assert((kVertexKeySlots & (kVertexKeySlots - 1)) == 0, "slots are picked by masking the index");
   VertexKeySlot vertex_keys[kVertexKeySlots];
   std::uint32_t vertex_key_generation = 0;
+  /// The position key of point p: its number in `positions`, numbered in
+  /// the order first met in this query.
+  std::uint32_t positionKeyOf(const Vec3& p) {
+    const auto next = static_cast<std::uint32_t>(positions.size());
+    return positions.insert(detail::positionKey(p.data()), next);
+  }
   /// Starts a run of one instance's vertex indices in the cache: the tag
   /// base (generation << 32) for vertexPositionKey().
   std::uint64_t nextVertexKeyGeneration() {
@@ -52,8 +58,7 @@ struct QueryScratch::Impl {
     if (slot.tag == tag) {
       key = slot.key;
     } else {
-      const auto next = static_cast<std::uint32_t>(positions.size());
-      key = positions.insert(detail::positionKey(p.data()), next);
+      key = positionKeyOf(p);
       slot.tag = tag;
       slot.key = key;
     }
