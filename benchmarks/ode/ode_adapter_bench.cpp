@@ -7,8 +7,11 @@
 // Scene and placements: compare_bench's flat floor (512 triangles, welded,
 // random diagonals) with its seeded sphere placements (r 0.1-1 m, every one
 // touching) and box placements (half extents 0.1-0.4 m, random rotation,
-// lowest corner 5 cm below to 1 cm above), the first --placements of each.
-// Each case cycles through its list; every iteration is one query.
+// lowest corner 5 cm below to 1 cm above), the first --placements of each;
+// capsules and cylinders placed as the boxes are (radius and half length
+// 0.1-0.4 m, random rotation, lowest point 5 cm below to 1 cm above: the
+// wheels and limbs of an ODE model). Each case cycles through its list;
+// every iteration is one query.
 //
 // The dCollide cases' loop also sets the shape geom's size and pose (ODE
 // setters, a few ns), which the core case does not have.
@@ -33,12 +36,16 @@
 #include <meshcontact/meshcontact.h>
 #include <meshcontact/ode.h>
 #include <meshcontact_peers/peers.h>
+#include <meshcontact_scenes/scenes.h>
 
 #include "ode_sim.h"  // tests/ode: the tests' ODE helpers
 
 #include <benchmark/benchmark.h>
 #include <ode/ode.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -57,7 +64,50 @@ constexpr int kContactBudget = 64;
 int g_placements = 4096;
 
 enum class Mode { kOdeNative, kOdeMeshcontact };
-enum class Shape { kSphere, kBox };
+enum class Shape { kSphere, kBox, kCapsule, kCylinder };
+
+const char* shapeName(Shape shape) {
+  switch (shape) {
+    case Shape::kSphere: return "sphere";
+    case Shape::kBox: return "box";
+    case Shape::kCapsule: return "capsule";
+    case Shape::kCylinder: return "cylinder";
+  }
+  return "?";
+}
+
+// A capsule or a cylinder (axis along local z, as in ODE and the core).
+struct RoundPlacement {
+  double radius = 0.0;
+  double half_length = 0.0;
+  mc::Pose pose;
+};
+
+// Seeded like compare_bench's box placements: random size and rotation, the
+// lowest point from 5 cm below the floor (z = 0) to 1 cm above it.
+std::vector<RoundPlacement> roundPlacements(const peers::CompareScene& scene, Shape shape, int count,
+                                            std::uint64_t seed) {
+  mc::scenes::Rng rng(seed);
+  std::vector<RoundPlacement> out;
+  for (int i = 0; i < count; ++i) {
+    RoundPlacement p;
+    p.radius = rng.uniform(0.1, 0.4);
+    p.half_length = rng.uniform(0.1, 0.4);
+    p.pose.rotation = rng.rotation();
+    // How far the lowest point lies below the centre: the axis' ends' reach
+    // plus, for a capsule, the radius all round; for a cylinder, the rim's
+    // (the radius times the sine of the axis' tilt).
+    const double axial = std::abs(p.pose.rotation(2, 2));
+    const double below = axial * p.half_length +
+                         (shape == Shape::kCapsule ? p.radius
+                                                   : p.radius * std::sqrt(std::max(0.0, 1.0 - axial * axial)));
+    const double depth = rng.uniform(-0.01, 0.05);
+    p.pose.translation = mc::Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
+                                  below - depth);
+    out.push_back(p);
+  }
+  return out;
+}
 
 // The scene, its placements and its ODE data (made per case: ODE is closed
 // between cases, and its trimesh data with it).
@@ -65,6 +115,8 @@ struct Fixture {
   peers::CompareScene scene;
   std::vector<peers::SpherePlacement> spheres;
   std::vector<peers::BoxPlacement> boxes;
+  std::vector<RoundPlacement> capsules;
+  std::vector<RoundPlacement> cylinders;
   std::vector<double> vertices;
   std::vector<dTriIndex> indices;
   mc::TriangleMesh mesh;
@@ -77,6 +129,8 @@ void loadScene() {
   const peers::LocalSphereOracle oracle(g.scene);
   g.spheres = peers::spherePlacements(g.scene, oracle, g_placements, 2027);
   g.boxes = peers::boxPlacements(g.scene, g_placements, 2028);
+  g.capsules = roundPlacements(g.scene, Shape::kCapsule, g_placements, 2029);
+  g.cylinders = roundPlacements(g.scene, Shape::kCylinder, g_placements, 2030);
   const mc::scenes::SceneMesh& piece = g.scene.pieces.at(0);
   g.vertices = piece.vertices;
   g.indices.assign(piece.indices.begin(), piece.indices.end());
@@ -112,6 +166,56 @@ void place(dGeomID geom, const mc::Pose& pose) {
   mc::odetest::setGeomRotation(geom, pose.rotation);
 }
 
+std::size_t placementCount(Shape shape) {
+  switch (shape) {
+    case Shape::kSphere: return g.spheres.size();
+    case Shape::kBox: return g.boxes.size();
+    case Shape::kCapsule: return g.capsules.size();
+    case Shape::kCylinder: return g.cylinders.size();
+  }
+  return 0;
+}
+
+dGeomID createGeom(Shape shape) {
+  switch (shape) {
+    case Shape::kSphere: return dCreateSphere(nullptr, 0.5);
+    case Shape::kBox: return dCreateBox(nullptr, 1.0, 1.0, 1.0);
+    case Shape::kCapsule: return dCreateCapsule(nullptr, 0.5, 1.0);
+    case Shape::kCylinder: return dCreateCylinder(nullptr, 0.5, 1.0);
+  }
+  return nullptr;
+}
+
+// Sets the geom's size and pose to placement i.
+void setGeom(dGeomID geom, Shape shape, std::size_t i) {
+  switch (shape) {
+    case Shape::kSphere: {
+      const peers::SpherePlacement& p = g.spheres[i];
+      dGeomSphereSetRadius(geom, p.radius);
+      dGeomSetPosition(geom, p.center.x(), p.center.y(), p.center.z());
+      return;
+    }
+    case Shape::kBox: {
+      const peers::BoxPlacement& p = g.boxes[i];
+      dGeomBoxSetLengths(geom, 2 * p.half_extents.x(), 2 * p.half_extents.y(), 2 * p.half_extents.z());
+      place(geom, p.pose);
+      return;
+    }
+    case Shape::kCapsule: {  // ODE's length: the segment's, not counting the caps
+      const RoundPlacement& p = g.capsules[i];
+      dGeomCapsuleSetParams(geom, p.radius, 2 * p.half_length);
+      place(geom, p.pose);
+      return;
+    }
+    case Shape::kCylinder: {
+      const RoundPlacement& p = g.cylinders[i];
+      dGeomCylinderSetParams(geom, p.radius, 2 * p.half_length);
+      place(geom, p.pose);
+      return;
+    }
+  }
+}
+
 // dCollide(trimesh, shape) on this thread's own geoms (ODE's trimesh
 // collider keeps per-thread caches: each thread makes and destroys its geoms
 // between its dAllocateODEDataForThread and dCleanupODEAllDataForThread).
@@ -119,21 +223,13 @@ void BM_DCollide(benchmark::State& state, Shape shape) {
   const int t = state.thread_index();
   dAllocateODEDataForThread(dAllocateMaskAll);
   dGeomID trimesh = dCreateTriMesh(nullptr, g.data, nullptr, nullptr, nullptr);
-  dGeomID geom = shape == Shape::kSphere ? dCreateSphere(nullptr, 0.5) : dCreateBox(nullptr, 1.0, 1.0, 1.0);
+  dGeomID geom = createGeom(shape);
   dContactGeom contacts[kContactBudget];
-  const std::size_t n = shape == Shape::kSphere ? g.spheres.size() : g.boxes.size();
+  const std::size_t n = placementCount(shape);
   std::size_t i = static_cast<std::size_t>(t) * n / 2;  // the threads start apart in the list
   long total = 0;
   for (auto _ : state) {
-    if (shape == Shape::kSphere) {
-      const peers::SpherePlacement& p = g.spheres[i];
-      dGeomSphereSetRadius(geom, p.radius);
-      dGeomSetPosition(geom, p.center.x(), p.center.y(), p.center.z());
-    } else {
-      const peers::BoxPlacement& p = g.boxes[i];
-      dGeomBoxSetLengths(geom, 2 * p.half_extents.x(), 2 * p.half_extents.y(), 2 * p.half_extents.z());
-      place(geom, p.pose);
-    }
+    setGeom(geom, shape, i);
     const int found = dCollide(trimesh, geom, kContactBudget, contacts, sizeof(dContactGeom));
     benchmark::DoNotOptimize(contacts[0]);
     total += found;
@@ -151,17 +247,32 @@ void BM_Core(benchmark::State& state, Shape shape) {
   mc::QueryScratch scratch;
   std::vector<mc::Contact> contacts;
   const mc::QuerySettings settings;
-  const std::size_t n = shape == Shape::kSphere ? g.spheres.size() : g.boxes.size();
+  const std::size_t n = placementCount(shape);
   std::size_t i = static_cast<std::size_t>(t) * n / 2;
   long total = 0;
   for (auto _ : state) {
     mc::Status s;
-    if (shape == Shape::kSphere) {
-      const peers::SpherePlacement& p = g.spheres[i];
-      s = mc::collideSphere(g.mesh, mc::Sphere{p.center, p.radius}, settings, scratch, contacts);
-    } else {
-      const peers::BoxPlacement& p = g.boxes[i];
-      s = mc::collideBox(g.mesh, mc::Box{p.half_extents}, p.pose, settings, scratch, contacts);
+    switch (shape) {
+      case Shape::kSphere: {
+        const peers::SpherePlacement& p = g.spheres[i];
+        s = mc::collideSphere(g.mesh, mc::Sphere{p.center, p.radius}, settings, scratch, contacts);
+        break;
+      }
+      case Shape::kBox: {
+        const peers::BoxPlacement& p = g.boxes[i];
+        s = mc::collideBox(g.mesh, mc::Box{p.half_extents}, p.pose, settings, scratch, contacts);
+        break;
+      }
+      case Shape::kCapsule: {
+        const RoundPlacement& p = g.capsules[i];
+        s = mc::collideCapsule(g.mesh, mc::Capsule{p.radius, p.half_length}, p.pose, settings, scratch, contacts);
+        break;
+      }
+      case Shape::kCylinder: {
+        const RoundPlacement& p = g.cylinders[i];
+        s = mc::collideCylinder(g.mesh, mc::Cylinder{p.radius, p.half_length}, p.pose, settings, scratch, contacts);
+        break;
+      }
     }
     if (!s) state.SkipWithError(s.message().c_str());
     total += static_cast<long>(contacts.size());
@@ -184,8 +295,8 @@ int main(int argc, char** argv) {
   int rest_argc = static_cast<int>(rest.size());
   benchmark::Initialize(&rest_argc, rest.data());
   loadScene();  // before any case: the threads of a case only read it
-  for (const Shape shape : {Shape::kSphere, Shape::kBox}) {
-    const std::string name = shape == Shape::kSphere ? "sphere" : "box";
+  for (const Shape shape : {Shape::kSphere, Shape::kBox, Shape::kCapsule, Shape::kCylinder}) {
+    const std::string name = shapeName(shape);
     // One thread only: ODE's own collider (OPCODE, this Debian build) is not
     // safe with two threads colliding against one dTriMeshDataID at once
     // (see the top of this file).
