@@ -478,11 +478,12 @@ constexpr double kProjectionGapFactor = 10.0;
 //     bounds the distance from below: beyond max_distance, done (as GJK's
 //     early exit; a third of the candidates that get this far under a
 //     resting cylinder).
-//  2. A vertex is its own answer. On an edge p0 + t e, the squared
+//  2. A vertex is its own answer. On an edge p0 + t e, half the squared
 //     distance to K is convex in t and its slope, (s - nearest(s)) . e at
 //     s = p0 + t e, continuous and nondecreasing: its root is bracketed
-//     around q's parameter and found by Brent's method. A face: false (the
-//     plane's case is handled before GJK).
+//     around q's parameter and found by Brent's method. A face: false (GJK
+//     decides; the face whose interior holds the core's lowest point, in
+//     front of its plane, never gets here).
 //  3. The pair (nearest(s), s) passes GJK's test (kProjectionGapFactor):
 //     with v = x - s and w the support of K - T along -v, |v|^2 - v . w
 //     within that gap of |v|^2. This holds only within that gap of the
@@ -490,11 +491,28 @@ constexpr double kProjectionGapFactor = 10.0;
 //     costs time (GJK then runs), never accuracy.
 // False (GJK then decides): no projection, a face, a pair within
 // `touching2` (GJK tells touching from intersecting), anything not finite,
-// or the test failed. On success `out` is what GJK would report:
-// separated, the pair, and `beyond` by GJK's rule (the lower bound
-// v . w / |v| beyond max_distance).
+// or the test failed. On success `out` is the pair, its distance, and
+// `beyond` by GJK's rule (the lower bound v . w / |v| beyond
+// max_distance).
+struct ProjectedPair {
+  Vec3 on_core, on_triangle;
+  double distance = 0.0;
+  bool beyond = false;
+  // As gjkDistance would report it (separated; v = on_core - on_triangle).
+  detail::GjkResult asGjkResult() const {
+    detail::GjkResult r;
+    r.status = detail::GjkStatus::kSeparated;
+    r.distance = distance;
+    r.point_a = on_core;
+    r.point_b = on_triangle;
+    r.v = on_core - on_triangle;
+    r.beyond = beyond;
+    return r;
+  }
+};
+
 bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Vec3& start,
-                             const detail::GjkSettings& settings, double touching2, detail::GjkResult& out) {
+                             const detail::GjkSettings& settings, double touching2, ProjectedPair& out) {
   Vec3 x = start;
   ClosestPoint q{};
   for (int round = 0; round < 2; ++round) {
@@ -509,11 +527,9 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
       const double vw = v.dot(Vec3(core(Vec3(-v)) - TriangleSupport{tri}(v)));
       if (core.counters->support_not_finite) return false;
       if (vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2) {
-        out.status = detail::GjkStatus::kSeparated;
+        out.on_core = x;
+        out.on_triangle = q.point;
         out.distance = std::sqrt(v2);  // an upper bound, as GJK's
-        out.point_a = x;
-        out.point_b = q.point;
-        out.v = v;
         out.beyond = true;
         return true;
       }
@@ -526,10 +542,12 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
   } else if (q.feature.type == FeatureType::kEdge) {
     const Vec3& p0 = tri[q.feature.index];
     const Vec3 e = tri[(q.feature.index + 1) % 3] - p0;
+    // The slope of half the squared distance (the same root); NaN if the
+    // shape declines this point (the test below then fails).
     Vec3 near;
     const auto slope = [&](double t) {
       const Vec3 s = p0 + t * e;
-      core.nearest(s, near);  // true: the shape gave one above
+      if (!core.nearest(s, near)) return std::numeric_limits<double>::quiet_NaN();
       return (s - near).dot(e);
     };
     // The bracket: 1/64 of the edge around q (where the projections led),
@@ -608,7 +626,7 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
   }
   // 3: the test.
   Vec3 on_core;
-  core.nearest(on_triangle, on_core);
+  if (!core.nearest(on_triangle, on_core)) return false;
   const Vec3 v = on_core - on_triangle;
   const double v2 = v.squaredNorm();
   if (!(v2 > touching2) || !std::isfinite(v2)) return false;
@@ -616,11 +634,9 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
   if (core.counters->support_not_finite) return false;  // GJK reports it
   const double vw = v.dot(w);
   if (!(v2 - vw <= kProjectionGapFactor * settings.relative_gap * v2)) return false;
-  out.status = detail::GjkStatus::kSeparated;
+  out.on_core = on_core;
+  out.on_triangle = on_triangle;
   out.distance = std::sqrt(v2);
-  out.point_a = on_core;
-  out.point_b = on_triangle;
-  out.v = v;
   out.beyond = vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2;
   return true;
 }
@@ -799,13 +815,12 @@ struct ConvexNarrowphase {
     // projections first, from its lowest point along -n: on a curved core
     // they find what GJK would in a fraction of its time (resting
     // cylinders, shapes_bench: 7.8 -> 4.4 us per query).
+    ProjectedPair pair;
+    const double touching = gjk.touching * (size + longest);  // as gjkDistance scales it
+    const bool projected =
+        projects && nearestPairByProjection(local_core, local_tri, Vec3(low - a), gjk, touching * touching, pair);
     detail::GjkResult g = [&] {
-      if (projects) {
-        detail::GjkResult projected;
-        const double touching = gjk.touching * (size + longest);  // as gjkDistance scales it
-        if (nearestPairByProjection(local_core, local_tri, Vec3(low - a), gjk, touching * touching, projected))
-          return projected;
-      }
+      if (projected) return pair.asGjkResult();
       if constexpr (kChecking) {
         const bool monitored = predict_contact && scale < 1.0 && counters->full_meets;
         return detail::gjkDistance(local_core, TriangleSupport{local_tri}, w, size + longest, gjk,

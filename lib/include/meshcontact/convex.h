@@ -132,16 +132,22 @@ class SupportShape {
 
   /// Optional: the core's point nearest to `x` (local frame; x itself when
   /// the core holds it), written to `out`; false when the shape gives none
-  /// (the default). With it, a query finds the closest points of the core
-  /// and a triangle whose nearest feature is an edge or a vertex by
-  /// projections (the distance along an edge is a convex function of one
-  /// variable) instead of GJK, which converges only linearly on a curved
-  /// core (a cylinder's rim against an edge: ~30 iterations). Contract:
-  /// `out` is a point of the core. The pair found is kept only if it passes
-  /// GJK's convergence test through support(), which then bounds its
-  /// distance within a relative 1e-9 of the true one: a core point that is not the
-  /// nearest costs time (GJK runs), never accuracy. A point outside the
-  /// core breaks that bound.
+  /// (the default; a query asks once, at x = 0, and a shape that answers
+  /// true there but false elsewhere only sends those pairs to GJK). With
+  /// it, a query finds the closest points of the core and a triangle whose
+  /// nearest feature is an edge or a vertex by projections (half the
+  /// squared distance along an edge is a convex function of one variable)
+  /// instead of GJK, which converges only linearly on a curved core (a
+  /// cylinder's rim against an edge: ~30 iterations).
+  /// Contract: `out` is a point of the core. A pair found is then kept only
+  /// if it passes GJK's convergence test through support() with 10 times
+  /// GJK's gap: its distance within a relative 1e-9 of the true one, its
+  /// direction within ~3e-5 rad (sqrt of that gap; GJK's own answers on
+  /// such cores are within ~1e-5, and features are told apart at 1e-4). A
+  /// pair whose separating-axis lower bound (through support()) is beyond
+  /// the query's reach ends that triangle there, as GJK's first iterations
+  /// would. So a core point that is not the nearest costs time (GJK runs),
+  /// not accuracy; a point outside the core breaks these bounds.
   virtual bool nearestCorePoint(const Vec3& x, Vec3& out) const;
 
   /// Farthest point of the whole shape (core plus margin) along `direction`:
