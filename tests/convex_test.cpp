@@ -551,37 +551,39 @@ Pose lyingAlongY(const Vec3& centre) {
 // of the narrowphase (GJK, or the cylinder's projections) on every triangle
 // and every pass run until it finds itself void.
 
-// Forwards everything but the projection: its queries run GJK where the
-// inner shape's project.
-struct WithoutProjection final : SupportShape {
+// Forwards every call to `inner`; the wrappers below change one thing each.
+struct ForwardingShape : SupportShape {
   const SupportShape& inner;
-  explicit WithoutProjection(const SupportShape& s) : inner(s) {}
+  explicit ForwardingShape(const SupportShape& s) : inner(s) {}
   Vec3 support(const Vec3& d) const override { return inner.support(d); }
   double margin() const override { return inner.margin(); }
   Vec3 center() const override { return inner.center(); }
   int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
   Status validate() const override { return inner.validate(); }
+  bool nearestCorePoint(const Vec3& x, Vec3& out) const override { return inner.nearestCorePoint(x, out); }
 };
 
+// No projection: its queries run GJK where the inner shape's project.
+struct WithoutProjection final : ForwardingShape {
+  using ForwardingShape::ForwardingShape;
+  bool nearestCorePoint(const Vec3&, Vec3&) const override { return false; }
+};
 
-// Forwards to a shape and counts its support and projection calls, the
-// narrowphase's work (shared: the queries are const).
-struct CountingShape final : SupportShape {
-  const SupportShape& inner;
-  mutable long calls = 0;
-  explicit CountingShape(const SupportShape& s) : inner(s) {}
+// Counts the support and projection calls, the narrowphase's work (shared:
+// the queries are const).
+struct CountingShape final : ForwardingShape {
+  mutable long supports = 0, projections = 0;
+  using ForwardingShape::ForwardingShape;
   Vec3 support(const Vec3& d) const override {
-    ++calls;
+    ++supports;
     return inner.support(d);
   }
-  double margin() const override { return inner.margin(); }
-  Vec3 center() const override { return inner.center(); }
-  int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
-  Status validate() const override { return inner.validate(); }
   bool nearestCorePoint(const Vec3& x, Vec3& out) const override {
-    ++calls;
+    ++projections;
     return inner.nearestCorePoint(x, out);
   }
+  long calls() const { return supports + projections; }
+  void reset() const { supports = projections = 0; }
 };
 
 TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
@@ -624,16 +626,16 @@ TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
         ASSERT_TRUE(gatherCandidates(&instance, 1, box_lo - reach, box_hi + reach, settings.key_mode, scratch,
                                      candidates)
                         .isOk());
-        shape.calls = 0;
+        shape.reset();
         const Status a = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
                                                          scratch, fast, true);
-        const long fast_calls = shape.calls;
-        shape.calls = 0;
+        const long fast_calls = shape.calls();
+        shape.reset();
         const Status b = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
                                                          scratch, reference, false);
         calls_fast += fast_calls;
-        calls_reference += shape.calls;
-        saved += fast_calls < shape.calls;
+        calls_reference += shape.calls();
+        saved += fast_calls < shape.calls();
         ASSERT_EQ(a.code(), b.code()) << "placement " << i << ": " << a.message() << " / " << b.message();
         ASSERT_TRUE(testing::bitwiseEqual(fast, reference))
             << "placement " << i << ": " << fast.size() << " contacts with the shortcuts, " << reference.size()
@@ -1098,21 +1100,6 @@ TEST(ConvexProjection, CylinderNearestCorePointIsTheProjection) {
   EXPECT_FALSE(Ball(0.2).nearestCorePoint(Vec3::Zero(), unused));
 }
 
-// Counts the projections a query asks for.
-struct CountingProjection final : SupportShape {
-  const SupportShape& inner;
-  mutable long projections = 0;
-  explicit CountingProjection(const SupportShape& s) : inner(s) {}
-  Vec3 support(const Vec3& d) const override { return inner.support(d); }
-  double margin() const override { return inner.margin(); }
-  Vec3 center() const override { return inner.center(); }
-  int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
-  Status validate() const override { return inner.validate(); }
-  bool nearestCorePoint(const Vec3& x, Vec3& out) const override {
-    ++projections;
-    return inner.nearestCorePoint(x, out);
-  }
-};
 
 // The height of a scene's surface over (x, y): its highest triangle there
 // (vertical faces, a cliff's wall, have no area seen from above).
@@ -1129,6 +1116,19 @@ double surfaceHeight(const SceneMesh& scene, double x, double y) {
     best = std::max(best, a.z() + u * (b.z() - a.z()) + v * (c.z() - a.z()));
   }
   return best;
+}
+
+// A random rotation, and the shape's lowest point (along -z) over a random
+// spot of the scene's bounds [lo, hi] (0.5 in from their sides), from
+// `below` under the surface there to `above` over it.
+Pose poseOverSurface(const SceneMesh& scene, const Vec3& lo, const Vec3& hi, const SupportShape& shape,
+                     double below, double above, scenes::Rng& rng) {
+  Pose pose;
+  pose.rotation = rng.rotation();
+  const double x = rng.uniform(lo.x() + 0.5, hi.x() - 0.5), y = rng.uniform(lo.y() + 0.5, hi.y() - 0.5);
+  const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
+  pose.translation = Vec3(x, y, surfaceHeight(scene, x, y) + rng.uniform(-below, above)) - low;
+  return pose;
 }
 
 // Cylinders resting, hovering within the contact distance, and sunk into a
@@ -1177,19 +1177,14 @@ TEST(ConvexProjection, CylinderContactsAreGjks) {
       return out;
     };
     for (const CylinderShape& cylinder : cylinders) {
-      const CountingProjection shape(cylinder);
+      const CountingShape shape(cylinder);
       const WithoutProjection gjk_only(cylinder);
       const double size = 2.0 * std::hypot(cylinder.cylinder().radius, cylinder.cylinder().half_length);
       const int placements = testing::scaled(1500);
       for (int i = 0; i < placements; ++i) {
-        Pose pose;
-        pose.rotation = rng.rotation();
-        // The lowest point over a random spot, from 2 cm above the surface
-        // there (within the contact distance of a third of the queries) to
-        // 5 cm below it.
-        const double x = rng.uniform(lo.x() + 0.5, hi.x() - 0.5), y = rng.uniform(lo.y() + 0.5, hi.y() - 0.5);
-        const Vec3 low = pose.rotation * cylinder.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
-        pose.translation = Vec3(x, y, surfaceHeight(scene, x, y) + rng.uniform(-0.05, 0.02)) - low;
+        // From 2 cm above the surface (within the contact distance of a
+        // third of the queries) to 5 cm below it.
+        const Pose pose = poseOverSurface(scene, lo, hi, cylinder, 0.05, 0.02, rng);
         QuerySettings settings;
         settings.contact_distance = i % 3 == 0 ? 0.02 : 0.0;
         settings.reduce_manifold = false;
@@ -1242,18 +1237,13 @@ TEST(ConvexProjection, CylinderContactsAreGjks) {
 // A projection that is not the nearest point (but a point of the core: the
 // contract) only sends the query on to GJK: a cylinder whose projection is
 // onto a core 10% smaller gives GJK's contacts bit for bit.
-struct ShrunkenProjection final : SupportShape {
-  const CylinderShape& inner;
+struct ShrunkenProjection final : ForwardingShape {
+  const CylinderShape& cylinder;
   mutable long calls = 0;
-  explicit ShrunkenProjection(const CylinderShape& s) : inner(s) {}
-  Vec3 support(const Vec3& d) const override { return inner.support(d); }
-  double margin() const override { return inner.margin(); }
-  Vec3 center() const override { return inner.center(); }
-  int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
-  Status validate() const override { return inner.validate(); }
+  explicit ShrunkenProjection(const CylinderShape& s) : ForwardingShape(s), cylinder(s) {}
   bool nearestCorePoint(const Vec3& x, Vec3& out) const override {
     ++calls;
-    const CylinderShape smaller(Cylinder{0.9 * inner.cylinder().radius, 0.9 * inner.cylinder().half_length});
+    const CylinderShape smaller(Cylinder{0.9 * cylinder.cylinder().radius, 0.9 * cylinder.cylinder().half_length});
     smaller.nearestCorePoint(x, out);  // inside the smaller core, so inside this one
     return true;
   }
@@ -1272,11 +1262,7 @@ TEST(ConvexProjection, AnInexactProjectionOnlyCostsTime) {
     const TriangleMesh mesh = testing::buildMesh(scene);
     const Vec3 lo = mesh.boundsLo(), hi = mesh.boundsHi();
     for (int i = 0; i < testing::scaled(1000); ++i) {
-      Pose pose;
-      pose.rotation = rng.rotation();
-      const double x = rng.uniform(lo.x() + 0.5, hi.x() - 0.5), y = rng.uniform(lo.y() + 0.5, hi.y() - 0.5);
-      const Vec3 low = pose.rotation * cylinder.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
-      pose.translation = Vec3(x, y, surfaceHeight(scene, x, y) + rng.uniform(-0.05, 0.02)) - low;
+      const Pose pose = poseOverSurface(scene, lo, hi, cylinder, 0.05, 0.02, rng);
       QuerySettings settings;
       settings.contact_distance = i % 3 == 0 ? 0.02 : 0.0;
       ASSERT_TRUE(collideConvex(mesh, inexact, pose, settings, scratch, got).isOk());
@@ -1332,17 +1318,13 @@ TEST(ConvexProjection, CylinderEdgeAndVertexContactsAreExact) {
     const TriangleMesh mesh = testing::buildMesh(scene);
     const Vec3 lo = mesh.boundsLo(), hi = mesh.boundsHi();
     for (int i = 0; i < testing::scaled(1500); ++i, ++queries) {
-      Pose pose;
-      pose.rotation = rng.rotation();
-      const double x = rng.uniform(lo.x() + 0.5, hi.x() - 0.5), y = rng.uniform(lo.y() + 0.5, hi.y() - 0.5);
-      const Vec3 low = pose.rotation * cylinder.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
+      const Pose pose = poseOverSurface(scene, lo, hi, cylinder, 0.9 * m, 0.02, rng);
       QuerySettings settings;
       settings.contact_distance = 0.02;
       settings.reduce_manifold = false;
       // Every triangle's own contact (on a floor the filter voids every
       // edge and vertex): the narrowphase's answers, one per triangle.
       settings.filter = FilterMode::kNone;
-      pose.translation = Vec3(x, y, surfaceHeight(scene, x, y) + rng.uniform(-0.9 * m, 0.02)) - low;
       for (int method = 0; method < 2; ++method) {
         const SupportShape& shape = method == 0 ? static_cast<const SupportShape&>(cylinder) : gjk_only;
         ASSERT_TRUE(collideConvex(mesh, shape, pose, settings, scratch, contacts).isOk());
