@@ -4,6 +4,8 @@
 // crash, nothing appended).
 #include "fcl_test_support.h"
 
+#include "../../adapters/fcl/src/internal.h"  // ConeShape
+
 #include <thread>
 
 namespace meshcontact::fcltest {
@@ -639,6 +641,41 @@ TEST(DropInBadInput, PairFclCannotCollide) {
   b.expectError(&mesh, &triangle, ErrorCode::kInvalidShape, "GEOM_TRIANGLE");
   ::fcl::CollisionObjectd aabb_mesh(fclModel<::fcl::AABBd>(terrain()));
   b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
+}
+
+// FCL's cone as the adapter's support shape: its nearest core points (the
+// closed form the queries use in place of GJK on the base's rim) are on the
+// cone and are the projection: x - p makes an obtuse angle with every
+// direction from p into the cone (sampled: apex, rim, base, side, inside).
+// TestCone, the tests' version from the documented behaviour, agrees.
+TEST(DropInShapes, ConeNearestCorePointIsTheProjection) {
+  const double r = 0.3, h = 0.25;
+  const fcl::detail::ConeShape cone(r, h);
+  const TestCone documented(r, 2.0 * h);
+  scenes::Rng rng(61);
+  int inside = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 x(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6));
+    Vec3 p, q;
+    ASSERT_TRUE(cone.nearestCorePoint(x, p));
+    ASSERT_TRUE(documented.nearestCorePoint(x, q));
+    EXPECT_EQ(p, q) << testing::str(x);
+    // On the cone: within the base's plane and the side's (radius shrinking
+    // linearly from r at z = -h to 0 at z = h), to rounding.
+    EXPECT_GE(p.z(), -h - 1e-15) << testing::str(x);
+    EXPECT_LE(std::hypot(p.x(), p.y()), r * (h - p.z()) / (2.0 * h) + 1e-15) << testing::str(x);
+    if ((p - x).norm() <= 1e-15) {  // a point of the cone (the 2D closest point rounds)
+      ++inside;
+      continue;
+    }
+    for (int k = 0; k < 16; ++k) {
+      const double a = rng.uniform(0.0, 2.0 * M_PI), z = k < 4 ? -h : rng.uniform(-h, h);
+      const double rim = r * (h - z) / (2.0 * h), rho = k % 2 == 0 ? rim : rim * rng.uniform(0.0, 1.0);
+      const Vec3 y = k == 15 ? Vec3(0, 0, h) : Vec3(rho * std::cos(a), rho * std::sin(a), z);
+      EXPECT_LE((x - p).dot(y - p), 1e-15) << testing::str(x) << " cone point " << testing::str(y);
+    }
+  }
+  EXPECT_GT(inside, 200);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <meshcontact/convex.h>
 #include <meshcontact/fcl.h>
 #include <meshcontact/shapes.h>
+#include <meshcontact/triangle.h>
 #include <meshcontact_scenes/fcl_models.h>
 #include <meshcontact_scenes/scenes.h>
 
@@ -57,6 +58,18 @@ enum class Kind { kSphere, kCapsule, kBox, kCylinder, kCone, kEllipsoid, kConvex
 class TestCone final : public SupportShape {
  public:
   TestCone(double r, double lz) : r_(r), h_(0.5 * lz) {}
+  // Nearest core points as the adapter documents them (a solid of
+  // revolution: the nearest point of its cross-section, in the half-plane
+  // through the axis and x), so that the core's pipeline on this shape runs
+  // what the drop-in runs.
+  bool nearestCorePoint(const Vec3& x, Vec3& out) const override {
+    const double rho = std::sqrt(x.x() * x.x() + x.y() * x.y());
+    const ClosestPoint c =
+        closestPointOnTriangle(Vec3(rho, x.z(), 0.0), Vec3(0.0, h_, 0.0), Vec3(0.0, -h_, 0.0), Vec3(r_, -h_, 0.0));
+    const double k = rho > 0.0 ? c.point.x() / rho : 0.0;
+    out = Vec3(k * x.x(), k * x.y(), c.point.y());
+    return true;
+  }
   Vec3 support(const Vec3& d) const override {
     // The apex or a rim point, whichever is higher along d.
     const double rho = std::hypot(d.x(), d.y());

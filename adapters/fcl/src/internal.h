@@ -46,12 +46,17 @@ const char* toString(ShapeKind kind);
 /// Margin 0 (FCL's exact cone). Supporting face: the base (8 rim points at
 /// multiples of 45 degrees) for directions within the core's 0.05 slope of
 /// -z, a side line (apex, rim point) within that slope of the side's normal,
-/// else the support point.
+/// else the support point. Nearest points in closed form (a solid of
+/// revolution: the nearest point of its cross-section, the triangle
+/// (0, h) (0, -h) (radius, -h) in (distance from the axis, z), in the
+/// half-plane through the axis and the point), so that a query skips GJK
+/// on the base's curved rim (SupportShape::nearestCorePoint).
 class ConeShape final : public SupportShape {
  public:
   ConeShape(double radius, double half_length) : radius_(radius), half_length_(half_length) {}
   Vec3 support(const Vec3& direction) const override;
   int supportFace(const Vec3& direction, Vec3* out) const override;
+  bool nearestCorePoint(const Vec3& x, Vec3& out) const override;
   Status validate() const override;
 
  private:

@@ -2,6 +2,8 @@
 // the core's query, its support point, and FCL's own per-triangle test.
 #include "internal.h"
 
+#include <meshcontact/triangle.h>
+
 #include <fcl/narrowphase/detail/gjk_solver_indep.h>
 #include <fcl/narrowphase/detail/gjk_solver_libccd.h>
 
@@ -83,6 +85,17 @@ int ConeShape::supportFace(const Vec3& d, Vec3* out) const {
   }
   out[0] = support(d);
   return 1;
+}
+
+bool ConeShape::nearestCorePoint(const Vec3& x, Vec3& out) const {
+  const double rho = std::sqrt(x.x() * x.x() + x.y() * x.y());
+  const double h = half_length_;
+  const ClosestPoint c =
+      closestPointOnTriangle(Vec3(rho, x.z(), 0.0), Vec3(0.0, h, 0.0), Vec3(0.0, -h, 0.0), Vec3(radius_, -h, 0.0));
+  // On the axis the cross-section's nearest point is on it too (radial 0).
+  const double k = rho > 0.0 ? c.point.x() / rho : 0.0;
+  out = Vec3(k * x.x(), k * x.y(), c.point.y());
+  return true;
 }
 
 Status ConeShape::validate() const {
