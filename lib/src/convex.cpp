@@ -387,6 +387,16 @@ Status CylinderShape::validate() const {
 
 namespace {
 
+// The scales of the core about its center, pass by pass (convex.h, deep
+// penetration): the core itself, halved, quartered, then the center alone.
+constexpr double kPassScales[] = {1.0, 0.5, 0.25, 0.0};
+// The deeper passes that the first can prove void: bit k for kPassScales[k + 1].
+constexpr int kSkippablePasses = 2;
+constexpr int kAllSkippable = (1 << kSkippablePasses) - 1;
+
+// A point of the core moved to the core scaled by s about `center`.
+inline Vec3 scaledAbout(const Vec3& center, double s, const Vec3& p) { return center + s * (p - center); }
+
 struct Counters {
   bool support_not_finite = false;
   bool core_intersects = false;  // this pass must be redone with a smaller core
@@ -396,7 +406,9 @@ struct Counters {
   const CandidateTriangle* intersecting = nullptr;
   int void_deeper = 0;
   bool certainlyVoid(double scale) const {
-    return (scale == 0.5 && (void_deeper & 1)) || (scale == 0.25 && (void_deeper & 2));
+    for (int k = 0; k < kSkippablePasses; ++k)
+      if (scale == kPassScales[k + 1] && (void_deeper >> k & 1)) return true;
+    return false;
   }
   // Collision checking (ConvexNarrowphase::predict): the full shape was
   // found meeting the triangle, and then, in a deeper pass, a contact.
@@ -423,7 +435,7 @@ struct PlacedCore {
   }
   Vec3 operator()(const Vec3& d) const {
     const Vec3 p = full(d);
-    return scale == 1.0 ? p : Vec3(center + scale * (p - center));
+    return scale == 1.0 ? p : scaledAbout(center, scale, p);
   }
   // The scaled core's point nearest to x, when the shape gives its core's
   // (SupportShape::nearestCorePoint): the scaling about the center is a
@@ -437,7 +449,7 @@ struct PlacedCore {
     Vec3 local;
     if (!shape->nearestCorePoint(rotation->transpose() * (y - translation), local)) return false;
     const Vec3 p = *rotation * local + translation;
-    out = scale == 1.0 ? p : Vec3(center + scale * (p - center));
+    out = scale == 1.0 ? p : scaledAbout(center, scale, p);
     return true;
   }
 };
@@ -508,12 +520,13 @@ struct ProjectedPair {
 //     closest pair, whatever led to it: a wrong feature or a poor root
 //     costs time (GJK then runs), never accuracy.
 // False (GJK then decides): no projection, a face, a pair within
-// `touching2` (GJK tells touching from intersecting), anything not finite,
+// `touching` (GJK tells touching from intersecting), anything not finite,
 // or the test failed. On success `out` is the pair, its distance, and
 // `beyond` by GJK's rule (the lower bound v . w / |v| beyond
 // max_distance).
 bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Vec3& start,
-                             const detail::GjkSettings& settings, double touching2, ProjectedPair& out) {
+                             const detail::GjkSettings& settings, double touching, ProjectedPair& out) {
+  const double touching2 = touching * touching;
   Vec3 x = start;
   ClosestPoint q{};
   for (int round = 0; round < 2; ++round) {
@@ -690,6 +703,10 @@ struct ConvexNarrowphase {
   // closest points by projection before GJK.
   bool projects = false;
 
+  // How far the core scaled by s may be from a triangle that the full shape
+  // still reaches (see operator(): "Beyond reach").
+  double reachAt(double s) const { return margin + (1.0 - s) * radius + contact_distance; }
+
   detail::PatchOutcome operator()(const CandidateTriangle& t, detail::Patch& p) const {
     using detail::PatchOutcome;
     const Vec3* tri = t.vertices;
@@ -711,7 +728,7 @@ struct ConvexNarrowphase {
     // K (radius: of the core about the center), so this never rejects a
     // triangle the shape reaches, and being a bound on K's distance (the
     // delayed pass's sort key) it keeps the voiding order intact.
-    const double reach = margin + (1.0 - scale) * radius + contact_distance;
+    const double reach = reachAt(scale);
     // Cheap rejection, first (most candidates of a resting shape end here): the separating axis from the triangle's point
     // closest to the center (the triangle lies behind the plane through that
     // point normal to the axis), one support call.
@@ -820,7 +837,7 @@ struct ConvexNarrowphase {
     ProjectedPair pair;
     const double touching = gjk.touching * (size + longest);  // as gjkDistance scales it
     const bool projected =
-        projects && nearestPairByProjection(local_core, local_tri, Vec3(low - a), gjk, touching * touching, pair);
+        projects && nearestPairByProjection(local_core, local_tri, Vec3(low - a), gjk, touching, pair);
     detail::GjkResult g = [&] {
       if (projected) return pair.asGjkResult();
       if constexpr (kChecking) {
@@ -905,9 +922,9 @@ struct ConvexNarrowphase {
     // The face-ownership rule returns before the shortcut in every deeper pass.
     if (n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n)) return 0;
     int bits = 0;
-    for (int k = 0; k < 2; ++k) {
-      const double s = k == 0 ? 0.5 : 0.25;
-      const Vec3 low = center + s * (low_full - center), high = center + s * (high_full - center);
+    for (int k = 0; k < kSkippablePasses; ++k) {
+      const double s = kPassScales[k + 1];
+      const Vec3 low = scaledAbout(center, s, low_full), high = scaledAbout(center, s, high_full);
       const double gap = n.dot(low - a);
       if (!(gap < 0.0)) continue;
       const double top = n.dot(high - a);
@@ -917,10 +934,9 @@ struct ConvexNarrowphase {
     return bits;
   }
   int withinReachBits(int bits, const Vec3& q, const Vec3& w, const Vec3& far_w) const {
-    for (int k = 0; k < 2; ++k) {
-      const double s = k == 0 ? 0.5 : 0.25;
-      const double reach = margin + (1.0 - s) * radius + contact_distance;  // as in operator()
-      if ((bits >> k & 1) && w.dot(Vec3(center + s * (far_w - center)) - q) > reach) bits &= ~(1 << k);
+    for (int k = 0; k < kSkippablePasses; ++k) {
+      const double s = kPassScales[k + 1];
+      if ((bits >> k & 1) && w.dot(Vec3(scaledAbout(center, s, far_w) - q)) > reachAt(s)) bits &= ~(1 << k);
     }
     return bits;
   }
@@ -1150,7 +1166,7 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
   QueryScratch::Impl& sc = scratch.impl();
   // Deep penetration: the same query with the core shrunk toward its center
   // (convex.h); the last scale, the center itself, never intersects.
-  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
+  for (const double scale : kPassScales) {
     // Passes certainly void (Counters::void_deeper) are skipped: each would
     // end as soon as it reached the triangle that voids it, at the price of
     // every triangle before it.
@@ -1164,7 +1180,7 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     // order, and each one after that returns at once).
     if (shortcuts && scale == 1.0 && counters.intersecting != nullptr)
       for (std::size_t i = static_cast<std::size_t>(counters.intersecting - candidates) + 1;
-           i < count && counters.void_deeper != 3 && !counters.support_not_finite; ++i)
+           i < count && counters.void_deeper != kAllSkippable && !counters.support_not_finite; ++i)
         counters.void_deeper |= narrowphase.deeperVoidBits(candidates[i]);
     if (counters.support_not_finite) break;
   }
@@ -1239,7 +1255,7 @@ Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predi
   narrowphase.projects = projects_;
   detail::Patch p;
   detail::PatchOutcome outcome = detail::PatchOutcome::kDegenerate;
-  for (const double scale : {1.0, 0.5, 0.25, 0.0}) {
+  for (const double scale : kPassScales) {
     // As in runCandidates: the passes the first one proved void are skipped.
     if (counters.certainlyVoid(scale)) continue;
     narrowphase.scale = scale;
