@@ -191,20 +191,34 @@ DeepestOver deepestOverTriangle(const Vec3 v[3], const Vec3& n, const Vec3 m[3],
   };
   // The 12 box edges share 8 corners (bit i of c: x_i = +e_i): each corner's
   // values against the prism's sides and its depth, once, not once per edge
-  // end (the same expressions, so the same values).
+  // end (the same expressions, so the same values). Bit s of outside[c]:
+  // corner c is beyond side s (side[c][s] < 0). An edge whose two ends are
+  // beyond one side has no point over the triangle, and only the sides that
+  // separate its ends clip it: the same interval as clipping by all three
+  // (clipInterval leaves an interval alone for a side both ends are within),
+  // for far fewer of the branches that mispredicted on arbitrary corners.
   Vec3 corner[8];
   double side[8][3], corner_depth[8];
+  int outside[8];
   for (int c = 0; c < 8; ++c) {
     for (int i = 0; i < 3; ++i) corner[c][i] = (c >> i) & 1 ? e[i] : -e[i];
-    for (int s = 0; s < 3; ++s) side[c][s] = m[s].dot(corner[c] - v[s]);
+    outside[c] = 0;
+    for (int s = 0; s < 3; ++s) {
+      side[c][s] = m[s].dot(corner[c] - v[s]);
+      outside[c] |= int(side[c][s] < 0.0) << s;
+    }
     corner_depth[c] = n.dot(v[0] - corner[c]);
   }
   for (int i = 0; i < 3; ++i) {  // the 4 box edges along u_i (corners are their ends)
     const int j = (i + 1) % 3, k = (i + 2) % 3;
     for (int c = 0; c < 4; ++c) {
       const int ca = ((c & 1) << j) | (((c >> 1) & 1) << k), cb = ca | (1 << i);
+      if ((outside[ca] & outside[cb]) != 0) continue;
       double lo = 0.0, hi = 1.0;
-      for (int s = 0; s < 3 && lo <= hi; ++s) clipInterval(side[ca][s], side[cb][s], lo, hi);
+      for (int split = outside[ca] ^ outside[cb]; split != 0; split &= split - 1) {
+        const int s = split & 1 ? 0 : (split & 2 ? 1 : 2);
+        clipInterval(side[ca][s], side[cb][s], lo, hi);
+      }
       if (lo > hi) continue;
       const Vec3& a = corner[ca];
       const Vec3 ab = corner[cb] - a;
@@ -710,15 +724,25 @@ struct BoxNarrowphase {
     // along a tilted axis is often smaller only because the triangle ends).
     const bool interior = std::isfinite(best.pen) && over.mask == 0;
     const double n_bias = interior ? kInteriorFaceBias : kFaceBias;
+    // Every axis's length, slope along n and pushes, first, in a loop with
+    // no branch: its square roots and divisions overlap in the pipeline,
+    // where the choice below (data-dependent branches) left each waiting on
+    // the last. (|u_i| = 1 exactly; a length computed when its axis
+    // separated is this same expression.)
+    double along[12], push[12][2];
     for (int a = 0; a < axis_count; ++a) {
       Axis& ax = axes[a];
-      if (ax.length == 0.0) ax.length = std::sqrt(ax.L.squaredNorm());
-      const double sign_n = ax.L.dot(n) / ax.length;
+      ax.length = std::sqrt(ax.L.squaredNorm());
+      along[a] = ax.L.dot(n) / ax.length;
+      push[a][0] = (ax.tmax + ax.rb) / ax.length;  // along +L
+      push[a][1] = (ax.rb - ax.tmin) / ax.length;  // along -L
+    }
+    for (int a = 0; a < axis_count; ++a) {
+      const Axis& ax = axes[a];
       for (int o = 0; o < 2; ++o) {
-        const double along_n = o == 0 ? sign_n : -sign_n;
+        const double along_n = o == 0 ? along[a] : -along[a];
         if (along_n < -1e-9) continue;  // would point to the triangle's back
-        // The push along +L or -L, divided only for a direction that counts.
-        const double pen = o == 0 ? (ax.tmax + ax.rb) / ax.length : (ax.rb - ax.tmin) / ax.length;
+        const double pen = push[a][o];
         const double bias = best.kind == 0 ? n_bias : kFaceBias;
         const double margin =
             ax.kind > best.kind && std::isfinite(best.pen) ? bias * std::abs(best.pen) + 1e-6 * scale : 0.0;
