@@ -3,7 +3,9 @@
 #include "test_support.h"
 
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <utility>
 
 namespace meshcontact {
 namespace {
@@ -239,6 +241,69 @@ TEST(Ranges, TinyScalesStillGiveUnitNormals) {
       }
     }
   }
+}
+
+// Candidates from another midphase (collide*Candidates) are held to the range
+// a built mesh's vertices are: a corner that is NaN, infinite or beyond
+// +-1e50 is an error naming the candidate and corner, for every shape, with
+// nothing in the output (before, such a candidate was dropped as degenerate
+// or out of reach, silently, with the others' contacts returned).
+TEST(Ranges, CandidateCornersBeyondTheSupportedRangeAreErrors) {
+  CandidateTriangle good;
+  good.vertices[0] = Vec3(0, 0, 0);
+  good.vertices[1] = Vec3(1, 0, 0);
+  good.vertices[2] = Vec3(0, 1, 0);
+  for (int k = 0; k < 3; ++k) good.keys[k] = static_cast<std::uint64_t>(k);
+  const CylinderShape cylinder(Cylinder{0.1, 0.2});
+  const Pose pose{Mat3::Identity(), Vec3(0.2, 0.2, 0.1)};
+  using Query = std::function<Status(const CandidateTriangle*, std::size_t, std::vector<Contact>&)>;
+  QueryScratch scratch;
+  const std::vector<std::pair<const char*, Query>> shapes = {
+      {"sphere",
+       [&](const CandidateTriangle* c, std::size_t n, std::vector<Contact>& out) {
+         return collideSphereCandidates({pose.translation, 0.2}, c, n, {}, scratch, out);
+       }},
+      {"capsule",
+       [&](const CandidateTriangle* c, std::size_t n, std::vector<Contact>& out) {
+         return collideCapsuleCandidates({0.1, 0.2}, pose, c, n, {}, scratch, out);
+       }},
+      {"box",
+       [&](const CandidateTriangle* c, std::size_t n, std::vector<Contact>& out) {
+         return collideBoxCandidates({Vec3(0.2, 0.2, 0.15)}, pose, c, n, {}, scratch, out);
+       }},
+      {"cylinder",
+       [&](const CandidateTriangle* c, std::size_t n, std::vector<Contact>& out) {
+         return collideConvexCandidates(cylinder, pose, c, n, {}, scratch, out);
+       }},
+  };
+  for (const auto& [name, query] : shapes) {
+    std::vector<Contact> contacts;
+    ASSERT_TRUE(query(&good, 1, contacts).isOk()) << name;
+    EXPECT_FALSE(contacts.empty()) << name << ": the good triangle alone touches";
+    for (double bad : {kNaN, kInf, -kInf, 1e60}) {
+      CandidateTriangle second = good;
+      second.triangle = 7;
+      second.vertices[2] = Vec3(1, 1, 0);
+      second.vertices[1].y() = bad;
+      const CandidateTriangle both[2] = {good, second};
+      contacts.assign(2, Contact{});
+      SCOPED_TRACE(std::string(name) + ", coordinate " + std::to_string(bad));
+      expectError(query(both, 2, contacts), ErrorCode::kNonFiniteVertex, "candidate 1 (mesh 0, triangle 7) corner 1");
+      EXPECT_TRUE(contacts.empty());
+    }
+  }
+  // The support shapes' one-triangle probe too (collision checking).
+  ConvexContactProbe probe;
+  ASSERT_TRUE(probe.prepare(cylinder, pose, {}).isOk());
+  bool contact = false;
+  ASSERT_TRUE(probe.check(good, contact).isOk());
+  EXPECT_TRUE(contact);
+  CandidateTriangle bad = good;
+  bad.vertices[0].z() = kNaN;
+  expectError(probe.check(bad, contact), ErrorCode::kNonFiniteVertex, "corner 0");
+  EXPECT_FALSE(contact);
+  expectError(probe.touches(bad, contact), ErrorCode::kNonFiniteVertex, "corner 0");
+  EXPECT_FALSE(contact);
 }
 
 TEST(Status, CodesHaveNames) {

@@ -850,6 +850,8 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
+  s = detail::checkCandidates(candidates, count);
+  if (!s) return s;
   detail::manifoldContacts(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
   return Status::ok();
 }

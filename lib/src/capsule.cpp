@@ -210,6 +210,8 @@ Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const 
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(capsule, pose, settings);
   if (!s) return s;
+  s = detail::checkCandidates(candidates, count);
+  if (!s) return s;
   detail::manifoldContacts(makeNarrowphase(capsule, pose, settings.contact_distance), candidates, count, settings,
                            scratch, contacts);
   return Status::ok();

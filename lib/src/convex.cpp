@@ -1248,6 +1248,8 @@ Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predi
                                   Contact* deepest) const {
   contact = false;
   if (shape_ == nullptr) return {ErrorCode::kInvalidShape, "ConvexContactProbe: prepare() has not succeeded"};
+  const Status s = detail::checkCandidates(&candidate, 1);
+  if (!s) return s;
   Counters counters;
   ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
   narrowphase.predict_intersection = true;
@@ -1292,6 +1294,8 @@ Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& po
   if (!s) return s;
   Vec3 lo, hi, center;
   s = shapeBounds(shape, pose, lo, hi, center);
+  if (!s) return s;
+  s = checkCandidates(candidates, count);
   if (!s) return s;
   return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, scratch, contacts, shortcuts);
 }

