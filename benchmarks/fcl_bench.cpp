@@ -35,6 +35,9 @@
 //                 own OBBRSS hierarchy.
 //   DropInCached  the Status variant with Options::cache (a ModelCache
 //                 holding the core's compact hierarchy of the model).
+//   DropInIndexKeys  the Status variant with settings.key_mode =
+//                 kVertexIndex (the scenes' models are welded): contacts of
+//                 the sphere, capsule and box, in the console output only.
 // Requests:
 //   Contacts: CollisionRequest(100, enable_contact = true): every contact.
 //   Boolean:  CollisionRequest(1, enable_contact = false): collision checking.
@@ -247,6 +250,21 @@ void BM_DropInCached(benchmark::State& state, SceneId scene, ShapeId id, Mode mo
   if (!status) state.SkipWithError(status.message().c_str());
 }
 
+void BM_DropInIndexKeys(benchmark::State& state, SceneId scene, ShapeId id, Poses poses) {
+  const SceneFixture& sf = fixture().scenes[scene];
+  mc::fcl::Scratch scratch;
+  mc::fcl::Options options;
+  options.settings.key_mode = mc::KeyMode::kVertexIndex;
+  mc::Status status;
+  run(state, sf.obbrss, poseList(sf, id, poses), id, Mode::kContacts,
+      [&](const fcl::CollisionObjectd* a, const fcl::CollisionObjectd* b, const fcl::CollisionRequestd& r,
+          fcl::CollisionResultd& out) {
+        const mc::Status s = mc::fcl::collide(a, b, r, out, options, scratch);
+        if (!s && status) status = s;
+      });
+  if (!status) state.SkipWithError(status.message().c_str());
+}
+
 // The core's own query on the same mesh and poses (no FCL types, no
 // conversion, no fallback): the floor under the drop-in. The convex shape is
 // the core's ConvexHull of the prism's vertices with margin 0 (the drop-in
@@ -334,6 +352,10 @@ void registerAll() {
           benchmark::RegisterBenchmark(("DropInCached/" + suffix).c_str(), BM_DropInCached, scene, id, mode, poses)
               ->Repetitions(kRepetitions);
         }
+        if (id == kSphere || id == kCapsule || id == kBox)
+          benchmark::RegisterBenchmark(("DropInIndexKeys/" + scene_shape + "/Contacts" + tail).c_str(),
+                                       BM_DropInIndexKeys, scene, id, poses)
+              ->Repetitions(kRepetitions);
         if (id != kCone && id != kEllipsoid)
           benchmark::RegisterBenchmark(("Core/" + scene_shape + "/Contacts" + tail).c_str(), BM_Core, scene, id,
                                        poses)

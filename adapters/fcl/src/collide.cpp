@@ -451,7 +451,11 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   } else {
     s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
     if (!s) return s;
-    if (!checking) {
+    // The walk leaves each corner's vertex index in its key. Position keys
+    // unless the caller asked for index keys: an FCL model may duplicate its
+    // vertices (an STL file's, pieces appended), and the walk in place cannot
+    // tell (kAuto). The narrowphase checks the corners either way.
+    if (!checking && options.settings.key_mode != KeyMode::kVertexIndex) {
       s = assignPositionKeysFromIndices(sc.candidates.data(), sc.candidates.size(), sc.query);
       if (!s) return s;
     }
