@@ -158,14 +158,6 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
   EXPECT_EQ(cache.size(), 0u);
 }
 
-// The walk of a model's own hierarchy keeps degenerate triangles (the
-// narrowphases find them degenerate themselves): they must give nothing, in
-// contacts, collision checking and the pass-through fallback. The terrain
-// with degenerate triangles added on its surface (a repeated corner; the
-// third corner at the midpoint of the other two; all three corners one)
-// against the terrain alone: the same contacts (the
-// added triangles come after the terrain's, so its triangle ids stand),
-// the same in-collision answers, including poses sunk through the surface.
 // Options::settings.key_mode on a model walked in place: position keys by
 // default (duplicated vertices do not matter), vertex-index keys only when
 // asked, and then exactly the core's index-keyed pipeline (on a model whose
@@ -235,6 +227,14 @@ TEST(DropIn, IndexKeysOnlyWhenAsked) {
   EXPECT_GT(by_index_total, by_position_total) << "index keys on duplicated vertices keep internal-edge contacts";
 }
 
+// The walk of a model's own hierarchy keeps degenerate triangles (the
+// narrowphases find them degenerate themselves): they must give nothing, in
+// contacts, collision checking and the pass-through fallback. The terrain
+// with degenerate triangles added on its surface (a repeated corner; the
+// third corner at the midpoint of the other two; all three corners one)
+// against the terrain alone: the same contacts (the
+// added triangles come after the terrain's, so its triangle ids stand),
+// the same in-collision answers, including poses sunk through the surface.
 TEST(DropIn, DegenerateTrianglesGiveNothing) {
   const SceneMesh plain = terrain();
   SceneMesh with = plain;

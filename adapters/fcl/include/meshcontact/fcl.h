@@ -123,10 +123,10 @@ struct Options {
   /// sphere's contacts 5-10% faster in fcl_bench, DropInIndexKeys) and right
   /// only where shared vertices are shared indices (a welded model:
   /// otherwise every internal edge between duplicated vertices counts as a
-  /// boundary, with its contacts). With a
-  /// ModelCache, the core's rule: kAuto keys by index when the model has no
-  /// duplicated vertex. The BroadphaseCollector and postFilter always key by
-  /// position (their triangles come from several meshes or FCL's contacts).
+  /// boundary, with its contacts). With a ModelCache, the core's rule: kAuto
+  /// keys by index when the model has no duplicated vertex. The
+  /// BroadphaseCollector and postFilter always key by position (their
+  /// triangles come from several meshes or FCL's contacts).
   QuerySettings settings;
   /// Optional compact hierarchies for large models (see ModelCache), used by
   /// collide() and the BroadphaseCollector; models not in it are walked in
