@@ -527,6 +527,12 @@ struct ProjectedPair {
 bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Vec3& start,
                              const detail::GjkSettings& settings, double touching, ProjectedPair& out) {
   const double touching2 = touching * touching;
+  // v . w, w the support of K - T along -v: GJK's lower bound of the
+  // distance is that over |v|; beyond max_distance by GJK's rule.
+  const auto supportGap = [&](const Vec3& v) { return v.dot(Vec3(core(Vec3(-v)) - TriangleSupport{tri}(v))); };
+  const auto beyondReach = [&](double vw, double v2) {
+    return vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2;
+  };
   Vec3 x = start;
   ClosestPoint q{};
   for (int round = 0; round < 2; ++round) {
@@ -538,9 +544,9 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
     const Vec3 v = x - q.point;
     const double v2 = v.squaredNorm();
     if (v2 > touching2 && std::isfinite(v2)) {
-      const double vw = v.dot(Vec3(core(Vec3(-v)) - TriangleSupport{tri}(v)));
+      const double vw = supportGap(v);
       if (core.counters->support_not_finite) return false;
-      if (vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2) {
+      if (beyondReach(vw, v2)) {
         out.on_core = x;
         out.on_triangle = q.point;
         out.distance = std::sqrt(v2);  // an upper bound, as GJK's
@@ -645,14 +651,13 @@ bool nearestPairByProjection(const PlacedCore& core, const Vec3 tri[3], const Ve
   const Vec3 v = on_core - on_triangle;
   const double v2 = v.squaredNorm();
   if (!(v2 > touching2) || !std::isfinite(v2)) return false;
-  const Vec3 w = core(Vec3(-v)) - TriangleSupport{tri}(v);
+  const double vw = supportGap(v);
   if (core.counters->support_not_finite) return false;  // GJK reports it
-  const double vw = v.dot(w);
   if (!(v2 - vw <= kProjectionGapFactor * settings.relative_gap * v2)) return false;
   out.on_core = on_core;
   out.on_triangle = on_triangle;
   out.distance = std::sqrt(v2);
-  out.beyond = vw > 0.0 && vw * vw > settings.max_distance * settings.max_distance * v2;
+  out.beyond = beyondReach(vw, v2);
   return true;
 }
 
