@@ -33,12 +33,6 @@ Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle
   return Status::ok();
 }
 
-Status nonFiniteCorner(const CandidateTriangle& c, std::size_t i, int k) {
-  return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
-                                           ", triangle " + std::to_string(c.triangle) + ") corner " +
-                                           std::to_string(k) + " is not finite: " + detail::describe(c.vertices[k])};
-}
-
 }  // namespace
 
 Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
@@ -47,7 +41,7 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
   for (std::size_t i = 0; i < count; ++i) {
     CandidateTriangle& c = candidates[i];
     for (int k = 0; k < 3; ++k) {
-      if (!c.vertices[k].allFinite()) return nonFiniteCorner(c, i, k);
+      if (!c.vertices[k].allFinite()) return detail::candidateCornerError(c, i, k, "is not finite");
       c.keys[k] = sc.positionKeyOf(c.vertices[k]);
     }
   }
@@ -68,7 +62,7 @@ Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t 
       // Every corner is checked, also those whose key the cache gives: a
       // caller whose equal indices are not equal positions still gets the
       // error for a non-finite corner.
-      if (!c.vertices[k].allFinite()) return nonFiniteCorner(c, i, k);
+      if (!c.vertices[k].allFinite()) return detail::candidateCornerError(c, i, k, "is not finite");
       const std::uint64_t index = c.keys[k];
       if (index <= 0xffffffffu) {
         sc.vertexPositionKey(generation, static_cast<std::uint32_t>(index), c.vertices[k], c.keys[k]);

@@ -58,17 +58,18 @@ bool allInRange(const CandidateTriangle* candidates, std::size_t count) {
 
 }  // namespace
 
+Status candidateCornerError(const CandidateTriangle& c, std::size_t i, int k, const char* problem) {
+  return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
+                                           ", triangle " + std::to_string(c.triangle) + ") corner " +
+                                           std::to_string(k) + " " + problem + ": " + describe(c.vertices[k])};
+}
+
 Status checkCandidates(const CandidateTriangle* candidates, std::size_t count) {
   if (allInRange(candidates, count)) return Status::ok();
-  for (std::size_t i = 0; i < count; ++i) {
-    const CandidateTriangle& c = candidates[i];
+  for (std::size_t i = 0; i < count; ++i)
     for (int k = 0; k < 3; ++k)
-      if (!inRange(c.vertices[k]))
-        return {ErrorCode::kNonFiniteVertex, "candidate " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) +
-                                                 ", triangle " + std::to_string(c.triangle) + ") corner " +
-                                                 std::to_string(k) + " is not finite or beyond +-1e50: " +
-                                                 describe(c.vertices[k])};
-  }
+      if (!inRange(candidates[i].vertices[k]))
+        return candidateCornerError(candidates[i], i, k, "is not finite or beyond +-1e50");
   return Status::ok();
 }
 

@@ -26,6 +26,9 @@ Status checkContactDistance(double contact_distance);
 /// end as a candidate without a contact. kNonFiniteVertex names the first
 /// candidate and corner that is not.
 Status checkCandidates(const CandidateTriangle* candidates, std::size_t count);
+/// kNonFiniteVertex naming candidate i (its mesh and triangle) and corner k,
+/// then `problem` and the corner's coordinates.
+Status candidateCornerError(const CandidateTriangle& c, std::size_t i, int k, const char* problem);
 std::string describe(const Vec3& v);
 
 }  // namespace meshcontact::detail
