@@ -687,6 +687,52 @@ TEST(DropInBadInput, SlightlySkewedRotationIsAccepted) {
     EXPECT_LE((a.getContact(i).pos - c.getContact(i).pos).norm(), 1e-5);
 }
 
+TEST(DropInBadInput, SlightlySkewedMeshRotationKeepsNormalsUnit) {
+  // The mesh's rotation maps the contacts back to the world: slightly skewed
+  // (float data), it is taken as the nearest rotation, so the normals stay
+  // unit (rotated by the matrix as given, they were up to ~1e-6 off).
+  BadInput b;
+  ::fcl::Transform3d exact_tf = ::fcl::Transform3d::Identity();
+  exact_tf.linear() = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  exact_tf.translation() = Vec3(0.3, -0.2, 0.5);
+  ::fcl::Transform3d skewed_tf = exact_tf;
+  skewed_tf.linear() = skewed_tf.linear().cast<float>().cast<double>().eval();
+  skewed_tf.linear()(0, 0) += 2e-7;
+  ::fcl::CollisionObjectd exact_mesh(b.model, exact_tf);
+  ::fcl::CollisionObjectd skewed_mesh(b.model, skewed_tf);
+  const auto placed = [&](const std::shared_ptr<::fcl::CollisionGeometryd>& g, const Vec3& local) {
+    ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+    tf.translation() = local;
+    return ::fcl::CollisionObjectd(g, exact_tf * tf);
+  };
+  const ::fcl::CollisionObjectd shapes[] = {placed(std::make_shared<::fcl::Sphered>(0.3), Vec3(1, 1, 0.1)),
+                                            placed(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), Vec3(1, 1, 0.1))};
+  for (const ::fcl::CollisionObjectd& shape : shapes) {
+    for (const bool mesh_first : {true, false}) {
+      const ::fcl::CollisionObjectd* e1 = mesh_first ? &exact_mesh : &shape;
+      const ::fcl::CollisionObjectd* e2 = mesh_first ? &shape : &exact_mesh;
+      const ::fcl::CollisionObjectd* s1 = mesh_first ? &skewed_mesh : &shape;
+      const ::fcl::CollisionObjectd* s2 = mesh_first ? &shape : &skewed_mesh;
+      ::fcl::CollisionResultd exact, skewed, cleaned;
+      ASSERT_TRUE(fcl::collide(e1, e2, contactsRequest(), exact, fcl::Options(), b.scratch).isOk());
+      const Status s = fcl::collide(s1, s2, contactsRequest(), skewed, fcl::Options(), b.scratch);
+      ASSERT_TRUE(s.isOk()) << s.message();
+      ASSERT_GT(exact.numContacts(), 0u);
+      ASSERT_EQ(exact.numContacts(), skewed.numContacts());
+      // postFilter converts back to the world the same way.
+      ASSERT_TRUE(fcl::postFilter(s1, s2, contactsRequest(), skewed, cleaned, fcl::Options(), b.scratch).isOk());
+      ASSERT_GT(cleaned.numContacts(), 0u);
+      for (std::size_t i = 0; i < skewed.numContacts(); ++i) {
+        EXPECT_NEAR(skewed.getContact(i).normal.norm(), 1.0, 1e-12);
+        EXPECT_LE((skewed.getContact(i).normal - exact.getContact(i).normal).norm(), 1e-5);
+        EXPECT_LE((skewed.getContact(i).pos - exact.getContact(i).pos).norm(), 1e-5);
+      }
+      for (std::size_t i = 0; i < cleaned.numContacts(); ++i)
+        EXPECT_NEAR(cleaned.getContact(i).normal.norm(), 1.0, 1e-12);
+    }
+  }
+}
+
 TEST(DropInBadInput, BadShapesAndSettings) {
   BadInput b;
   ::fcl::CollisionObjectd mesh(b.model);

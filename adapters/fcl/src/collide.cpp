@@ -21,20 +21,6 @@ Scratch& Scratch::operator=(Scratch&&) noexcept = default;
 
 namespace detail {
 
-Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out, double* orthonormality_error) {
-  out.rotation = tf.linear();
-  out.translation = tf.translation();
-  if (!out.rotation.allFinite() || !out.translation.allFinite())
-    return {ErrorCode::kInvalidPose, std::string(what) + ": transform has a non-finite entry"};
-  const double err = (out.rotation.transpose() * out.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
-  if (orthonormality_error) *orthonormality_error = err;
-  if (!(err <= 1e-6) || !(out.rotation.determinant() > 0.0))
-    return {ErrorCode::kInvalidPose, std::string(what) +
-                                         ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
-                                         std::to_string(err) + ")"};
-  return Status::ok();
-}
-
 namespace {
 
 void orthonormalizeIfOff(Mat3& rotation, double err) {
@@ -42,6 +28,24 @@ void orthonormalizeIfOff(Mat3& rotation, double err) {
 }
 
 }  // namespace
+
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out) {
+  out.rotation = tf.linear();
+  out.translation = tf.translation();
+  if (!out.rotation.allFinite() || !out.translation.allFinite())
+    return {ErrorCode::kInvalidPose, std::string(what) + ": transform has a non-finite entry"};
+  const double err = (out.rotation.transpose() * out.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
+  if (!(err <= 1e-6) || !(out.rotation.determinant() > 0.0))
+    return {ErrorCode::kInvalidPose, std::string(what) +
+                                         ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
+                                         std::to_string(err) + ")"};
+  // Every pose taken from FCL is a rotation: the shape's pose in the model
+  // frame (the core's input) and the mesh's pose, which maps the contacts
+  // back to the world. Rotated by the matrix as given, off by up to 1e-6, a
+  // normal came out up to ~1e-6 from unit length (fuzz_fcl_adapter).
+  orthonormalizeIfOff(out.rotation, err);
+  return Status::ok();
+}
 
 Pose relativePose(const Pose& mesh, const Pose& shape) {
   Pose p = mesh.inverse() * shape;
@@ -62,11 +66,7 @@ Status checkPair(const MeshDesc& mesh, const ::fcl::CollisionObjectd& mesh_objec
     // exact, up to the sign of a zero), with the same re-orthonormalization,
     // for one rotation check instead of three.
     mesh_pose = Pose::identity();
-    double err = 0.0;
-    s = poseFromTransform(shape_object.getTransform(), shape_name, shape_in_model, &err);
-    if (!s) return s;
-    orthonormalizeIfOff(shape_in_model.rotation, err);
-    return Status::ok();
+    return poseFromTransform(shape_object.getTransform(), shape_name, shape_in_model);
   }
   Pose shape_pose;
   s = poseFromTransform(mesh_tf, mesh_name, mesh_pose);

@@ -229,10 +229,11 @@ Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& 
 /// farther than 1e-6 from orthonormal (|R^T R - I|, max entry) or with
 /// det <= 0. FCL accepts any matrix, and rotations converted from float
 /// quaternions are off by ~1e-7, hence a looser tolerance than the core's
-/// 1e-9; relativePose() hands the core an orthonormal rotation. The
-/// measured |R^T R - I| goes to `orthonormality_error` when it is given.
-Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out,
-                         double* orthonormality_error = nullptr);
+/// 1e-9. A rotation off by more than 1e-12 comes out re-orthonormalized
+/// (through a unit quaternion), so that the core gets a rotation and the
+/// contacts mapped back to the world keep unit normals; an exact one keeps
+/// its bits.
+Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& out);
 /// mesh^-1 * shape: the shape's pose in the model frame, re-orthonormalized
 /// (through a unit quaternion) only when it is off by more than 1e-12, so
 /// that exact rotations keep their bits.
