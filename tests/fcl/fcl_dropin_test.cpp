@@ -6,6 +6,10 @@
 
 #include "../../adapters/fcl/src/internal.h"  // ConeShape
 
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
 #include <thread>
 
 namespace meshcontact::fcltest {
@@ -730,6 +734,49 @@ TEST(DropInBadInput, SlightlySkewedMeshRotationKeepsNormalsUnit) {
       for (std::size_t i = 0; i < cleaned.numContacts(); ++i)
         EXPECT_NEAR(cleaned.getContact(i).normal.norm(), 1.0, 1e-12);
     }
+  }
+}
+
+TEST(DropInBadInput, FallbackEndsOnADegenerateConvex) {
+  // Found by fuzz_fcl_adapter: an fcl::Convex that is a segment 1e9 long (three
+  // of its four vertices equal) sunk into a triangle 1e-9 across. No contact
+  // from the pipeline, so the fallback (Report::through_contacts) asks FCL's
+  // shape-triangle test; under GST_LIBCCD, libccd's MPR looped forever on
+  // these exact values (FCL issue #243). The fallback now uses FCL's GJK,
+  // which stops. A hang fails this test after a minute instead of stalling
+  // the suite.
+  auto model = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
+  const std::vector<::fcl::Vector3d> v = {Vec3(0, 0, 0), Vec3(0, -0x1p-28, 0x1.af5f5f5f3f5f4p-31), Vec3(0x1p-30, 0, 0)};
+  model->beginModel();
+  model->addSubModel(v, std::vector<::fcl::Triangle>{::fcl::Triangle(0, 1, 2)});
+  model->endModel();
+  const double e = 0x1p-29;
+  auto points = std::make_shared<std::vector<::fcl::Vector3d>>(
+      std::vector<::fcl::Vector3d>{Vec3(e, e, e), Vec3(e, -0x1.dcd65p+29, e), Vec3(e, e, e), Vec3(e, e, e)});
+  auto faces = std::make_shared<std::vector<int>>(std::vector<int>{3, 0, 2, 1, 3, 0, 1, 3, 3, 1, 2, 3, 3, 2, 0, 3});
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.linear() << 0x1.d89d89e0b8b5p-1, -0x1.3b13b1146bfep-2, -0x1.d89d89bdff63p-3,  //
+      0x1.d89d89b0a7288p-3, 0x1.d89d89e2c94efp-1, -0x1.3b13b10d0977fp-2,           //
+      0x1.3b13b1196d136p-2, 0x1.d89d899cf5c28p-3, 0x1.d89d89e1f3cb6p-1;
+  const ::fcl::CollisionObjectd mesh(model);
+  const ::fcl::CollisionObjectd convex(std::make_shared<::fcl::Convexd>(points, 4, faces), tf);
+  for (const bool contacts : {true, false}) {
+    ::fcl::CollisionRequestd request(contacts ? 100 : 1, contacts);
+    request.gjk_solver_type = ::fcl::GST_LIBCCD;
+    ::fcl::CollisionResultd result;
+    fcl::Scratch scratch;
+    fcl::Report report;
+    auto call = std::async(std::launch::async,
+                           [&] { return fcl::collide(&mesh, &convex, request, result, fcl::Options(), scratch, &report); });
+    if (call.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
+      std::fprintf(stderr, "FallbackEndsOnADegenerateConvex: the drop-in did not return within 60 s\n");
+      std::_Exit(1);  // the call cannot be stopped: end the test program
+    }
+    const Status s = call.get();
+    ASSERT_TRUE(s.isOk()) << s.message();
+    // The triangle's plane is crossed; whatever the overlap test decides,
+    // a contact is the fallback's, with the face normal.
+    EXPECT_EQ(result.numContacts(), static_cast<std::size_t>(report.through_contacts));
   }
 }
 

@@ -5,7 +5,6 @@
 #include <meshcontact/triangle.h>
 
 #include <fcl/narrowphase/detail/gjk_solver_indep.h>
-#include <fcl/narrowphase/detail/gjk_solver_libccd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -381,15 +380,17 @@ bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a,
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
   tf.linear() = pose.rotation;
   tf.translation() = pose.translation;
-  // The solver set up as fcl::collide(CollisionObject...) does.
-  if (request.gjk_solver_type == ::fcl::GST_INDEP) {
-    ::fcl::detail::GJKSolver_indep<double> solver;
-    solver.gjk_tolerance = request.gjk_tolerance;
-    solver.epa_tolerance = request.gjk_tolerance;
-    return overlapAny(solver, shape, tf, a, b, c);
-  }
-  ::fcl::detail::GJKSolver_libccd<double> solver;
-  solver.collision_tolerance = request.gjk_tolerance;
+  // FCL's own GJK (GST_INDEP) whatever the request's solver: libccd's
+  // shape-triangle test (MPR) has loops without an iteration cap and can
+  // run forever (FCL issue #243; fuzz_fcl_adapter met it with an fcl::Convex
+  // that is a segment 1e9 long against a triangle 1e-9 across), while
+  // FCL's GJK stops after gjk_max_iterations. Away from touching, the two
+  // give the same answer (tests/fcl/fcl_boolean_test.cpp compares with
+  // fcl::collide under GST_LIBCCD). The tolerance is the request's, set up
+  // as fcl::collide(CollisionObject...) does for GST_INDEP.
+  ::fcl::detail::GJKSolver_indep<double> solver;
+  solver.gjk_tolerance = request.gjk_tolerance;
+  solver.epa_tolerance = request.gjk_tolerance;
   return overlapAny(solver, shape, tf, a, b, c);
 }
 

@@ -65,10 +65,11 @@
 // Threads: all entry points are reentrant. The drop-in collide() keeps its
 // scratch memory in a thread_local Scratch (no allocation per query once
 // warm); the Status variants take the Scratch explicitly. One exception: the
-// fallback of Report::through_contacts asks FCL's own shape-triangle test,
-// and FCL's libccd solver allocates two small objects per call (measured:
-// none for the sphere, about one allocation per query on average for the
-// other shapes on random poses over a terrain).
+// fallback of Report::through_contacts asks FCL's own shape-triangle test
+// (FCL's GJK), whose allocations are FCL's (with libccd's solver, used
+// until the fallback moved to FCL's GJK, two small objects per call: about
+// one allocation per query on average for shapes other than the sphere on
+// random poses over a terrain; not measured since).
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
@@ -215,7 +216,8 @@ struct Report {
   /// 1 when the fallback gave the contact: meshcontact's pipeline gave
   /// none (in collision checking: none before the check reached a triangle
   /// whose plane the shape's origin is behind, see collide() below), but
-  /// FCL's own two-sided test (the request's solver) finds the shape
+  /// FCL's own two-sided test (FCL's GJK, GST_INDEP, whatever the
+  /// request's solver: libccd's MPR can loop forever) finds the shape
   /// overlapping a candidate triangle. This happens when the shape has
   /// passed through a one-sided surface (meshcontact's contacts are
   /// one-sided, reference §4a: a sphere whose centre is behind every
@@ -250,8 +252,9 @@ struct Report {
 /// floor would otherwise have every candidate queried, and a support shape's
 /// deep-penetration passes run, before the fallback). The in-collision
 /// answer is the same as with contacts on.
-/// request.gjk_solver_type only affects forwarded pairs and the fallback
-/// test (Report::through_contacts); request.enable_cost forwards the pair to
+/// request.gjk_solver_type only affects forwarded pairs (the fallback test,
+/// Report::through_contacts, always runs FCL's GJK, with the request's
+/// gjk_tolerance); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.
 Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, const Options& options,
