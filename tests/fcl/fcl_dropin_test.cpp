@@ -742,9 +742,9 @@ TEST(DropInBadInput, FallbackEndsOnADegenerateConvex) {
   // of its four vertices equal) sunk into a triangle 1e-9 across. No contact
   // from the pipeline, so the fallback (Report::through_contacts) asks FCL's
   // shape-triangle test; under GST_LIBCCD, libccd's MPR looped forever on
-  // these exact values (FCL issue #243). The fallback now uses FCL's GJK,
-  // which stops. A hang fails this test after a minute instead of stalling
-  // the suite.
+  // these exact values (FCL issue #243). For a convex that spans no volume
+  // the fallback now asks FCL's GJK, which stops. A hang fails this test
+  // after a minute instead of stalling the suite.
   auto model = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
   const std::vector<::fcl::Vector3d> v = {Vec3(0, 0, 0), Vec3(0, -0x1p-28, 0x1.af5f5f5f3f5f4p-31), Vec3(0x1p-30, 0, 0)};
   model->beginModel();

@@ -140,9 +140,9 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
 /// support() is up to 0.4 of its margin inside the rims).
 Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction);
 
-/// FCL's own two-sided shape-triangle overlap test (FCL's GJK with the
-/// tolerance of `request`, whatever its solver: see shapes.cpp), in the
-/// query frame: what fcl::collide decides per triangle, away from touching.
+/// FCL's own two-sided shape-triangle overlap test (the solver and
+/// tolerance of `request`; FCL's GJK for a convex that spans no volume, see
+/// shapes.cpp), in the query frame: what fcl::collide decides per triangle.
 bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
                         const ::fcl::CollisionRequestd& request);
 
@@ -247,18 +247,19 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
 /// The fallback's test on one candidate (unit normal n, `depth` = n . (a -
 /// the shape's deepest point along -n)): the shape crosses the triangle's
 /// plane and, with `confirm`, FCL's own two-sided test (fclTriangleOverlap)
-/// finds them overlapping. False for a degenerate triangle (isDegenerateTriangle:
-/// its normal is noise).
+/// finds them overlapping. False for a degenerate triangle
+/// (isDegenerateTriangle: its normal is noise).
 bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle& c, const Vec3& n,
                    double depth, const ::fcl::CollisionRequestd* confirm);
 
 /// The fallback of Report::through_contacts, for a query whose pipeline
 /// gave no contact: among the candidates whose plane the shape crosses,
 /// those that overlap it (by FCL's own two-sided test, fclTriangleOverlap
-/// with `confirm`'s tolerance; every candidate when `confirm` is null, for
-/// triangles FCL already reported); writes the contact of the one the shape reaches deepest through
-/// to `out` (query frame: the face normal, the depth that clears the plane,
-/// the shape's deepest point) and returns true, or returns false.
+/// with `confirm`'s solver; every candidate when `confirm` is null, for
+/// triangles FCL already reported); writes the contact of the one the shape
+/// reaches deepest through to `out` (query frame: the face normal, the depth
+/// that clears the plane, the shape's deepest point) and returns true, or
+/// returns false.
 /// Collision checking (`first_overlap`): the first candidate, in the order
 /// given (the check's visiting order), that overlaps is the one reported: a
 /// boolean request needs one, and FCL's test on the others costs

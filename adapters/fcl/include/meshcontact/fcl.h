@@ -65,11 +65,10 @@
 // Threads: all entry points are reentrant. The drop-in collide() keeps its
 // scratch memory in a thread_local Scratch (no allocation per query once
 // warm); the Status variants take the Scratch explicitly. One exception: the
-// fallback of Report::through_contacts asks FCL's own shape-triangle test
-// (FCL's GJK), whose allocations are FCL's (with libccd's solver, used
-// until the fallback moved to FCL's GJK, two small objects per call: about
-// one allocation per query on average for shapes other than the sphere on
-// random poses over a terrain; not measured since).
+// fallback of Report::through_contacts asks FCL's own shape-triangle test,
+// and FCL's libccd solver allocates two small objects per call (measured:
+// none for the sphere, about one allocation per query on average for the
+// other shapes on random poses over a terrain).
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
@@ -216,11 +215,11 @@ struct Report {
   /// 1 when the fallback gave the contact: meshcontact's pipeline gave
   /// none (in collision checking: none before the check reached a triangle
   /// whose plane the shape's origin is behind, see collide() below), but
-  /// FCL's own two-sided test (FCL's GJK, GST_INDEP, whatever the
-  /// request's solver: libccd's MPR can loop forever) finds the shape
-  /// overlapping a candidate triangle. This happens when the shape has
-  /// passed through a one-sided surface (meshcontact's contacts are
-  /// one-sided, reference §4a: a sphere whose centre is behind every
+  /// FCL's own two-sided test (the request's solver; FCL's GJK for an
+  /// fcl::Convex that spans no volume, where libccd's MPR looped forever)
+  /// finds the shape overlapping a candidate triangle. This happens when
+  /// the shape has passed through a one-sided surface (meshcontact's
+  /// contacts are one-sided, reference §4a: a sphere whose centre is behind every
   /// triangle it touches gets none) or when a core shape with a rounding
   /// margin misses a contact the sharp FCL shape makes. One contact is then
   /// added, so that the in-collision answer agrees with fcl::collide: on the
@@ -252,9 +251,8 @@ struct Report {
 /// floor would otherwise have every candidate queried, and a support shape's
 /// deep-penetration passes run, before the fallback). The in-collision
 /// answer is the same as with contacts on.
-/// request.gjk_solver_type only affects forwarded pairs (the fallback test,
-/// Report::through_contacts, always runs FCL's GJK, with the request's
-/// gjk_tolerance); request.enable_cost forwards the pair to
+/// request.gjk_solver_type only affects forwarded pairs and the fallback
+/// test (Report::through_contacts); request.enable_cost forwards the pair to
 /// FCL. On an error nothing is appended.
 Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, const Options& options,
