@@ -740,11 +740,13 @@ TEST(DropInBadInput, SlightlySkewedMeshRotationKeepsNormalsUnit) {
 TEST(DropInBadInput, FallbackEndsOnADegenerateConvex) {
   // Found by fuzz_fcl_adapter: an fcl::Convex that is a segment 1e9 long (three
   // of its four vertices equal) sunk into a triangle 1e-9 across. No contact
-  // from the pipeline, so the fallback (Report::through_contacts) asks FCL's
-  // shape-triangle test; under GST_LIBCCD, libccd's MPR looped forever on
-  // these exact values (FCL issue #243). For a convex that spans no volume
-  // the fallback now asks FCL's GJK, which stops. A hang fails this test
-  // after a minute instead of stalling the suite.
+  // from the pipeline, so the fallback (Report::through_contacts) asks its
+  // two-sided overlap test; that was FCL's under the request's solver, and
+  // under GST_LIBCCD libccd's MPR looped forever on these exact values (FCL
+  // issue #243). The fallback now asks FCL's GJK, which stops after its
+  // iteration cap (tests/fuzz/regressions/timeout-a70c4f12... is a cylinder
+  // that hung the same way). A hang fails this test after a minute instead
+  // of stalling the suite.
   auto model = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
   const std::vector<::fcl::Vector3d> v = {Vec3(0, 0, 0), Vec3(0, -0x1p-28, 0x1.af5f5f5f3f5f4p-31), Vec3(0x1p-30, 0, 0)};
   model->beginModel();

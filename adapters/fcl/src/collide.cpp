@@ -134,14 +134,14 @@ bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTria
   if (isDegenerateTriangle(a, c.vertices[1], c.vertices[2])) return false;
   if (!confirm) return true;
   // The shape's bounding ball must reach the triangle (Ericson 5.2.7)
-  // before FCL's own test is asked: near misses straddle the planes of
-  // several candidates, and FCL's GJK costs microseconds per triangle.
+  // before the two-sided test is asked: near misses straddle the planes of
+  // several candidates, and that test runs FCL's GJK for most shapes.
   const Vec3 q = closestPointOnTriangle(pose.translation, a, c.vertices[1], c.vertices[2]).point;
   const double reach = shape.bound + band;
   if ((q - pose.translation).squaredNorm() > reach * reach) return false;
-  // For a sphere that test is FCL's whole test (the ball is the shape),
-  // exact here, so FCL is not asked; other shapes need FCL's GJK.
-  return shape.kind == ShapeKind::kSphere || fclTriangleOverlap(shape, pose, a, c.vertices[1], c.vertices[2], *confirm);
+  // For a sphere that test is the whole test (the ball is the shape).
+  return shape.kind == ShapeKind::kSphere ||
+         shapeOverlapsTriangle(shape, pose, a, c.vertices[1], c.vertices[2], q, confirm->gjk_tolerance);
 }
 
 bool throughContact(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
@@ -350,7 +350,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
       // never has a contact (2.4% of such probes on fcl_bench's convex
       // path), and with the shape sunk into a floor every candidate was
       // queried (a support shape's probe through all its deep passes) and
-      // missed before the pass-through fallback asked FCL's own test. That
+      // missed before the pass-through fallback asked its two-sided test. That
       // test, for this triangle, is asked first here. It answers only where
       // the fallback's own test holds, a pose the old order also found in
       // collision, so the in-collision answer is unchanged; it is reached
@@ -393,8 +393,8 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     // Collision checking needs only the triangles the shape may touch: those
     // within the contact distance of its (sharp) box, so within the box's
     // bounding ball, a smaller one than the axis-aligned bounds' (the walk's
-    // first test). Slack: the tolerance of FCL's own overlap test (the
-    // fallback below), absolute.
+    // first test). Slack: the tolerance of FCL's GJK in the fallback's
+    // overlap test (below), absolute.
     const double slack = std::max(request.gjk_tolerance, 0.0) + 1e-6 * shape.size;
     volume.radius = std::min(volume.radius, volume.half.norm() + slack);
     // The shape's own ball about its frame's origin, when smaller still: a

@@ -140,11 +140,14 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
 /// support() is up to 0.4 of its margin inside the rims).
 Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& direction);
 
-/// FCL's own two-sided shape-triangle overlap test (the solver and
-/// tolerance of `request`; FCL's GJK for a convex that spans no volume, see
-/// shapes.cpp), in the query frame: what fcl::collide decides per triangle.
-bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
-                        const ::fcl::CollisionRequestd& request);
+/// Whether FCL's (sharp) shape and triangle (a, b, c) overlap, two-sided,
+/// in the query frame: what fcl::collide decides per triangle, away from
+/// touching. Closed forms for the sphere, capsule and box; FCL's GJK with
+/// `tolerance` (the request's gjk_tolerance), capped at FCL's iteration
+/// count, for the others (see shapes.cpp for why not libccd's MPR).
+/// `closest` is the triangle's point closest to the shape's centre.
+bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
+                           const Vec3& closest, double tolerance);
 
 // ---------------------------------------------------------------------------
 // Meshes.
@@ -246,7 +249,7 @@ Contact planeContact(const CandidateTriangle& c, const Vec3& n, const Vec3& deep
 
 /// The fallback's test on one candidate (unit normal n, `depth` = n . (a -
 /// the shape's deepest point along -n)): the shape crosses the triangle's
-/// plane and, with `confirm`, FCL's own two-sided test (fclTriangleOverlap)
+/// plane and, with `confirm`, the two-sided test shapeOverlapsTriangle
 /// finds them overlapping. False for a degenerate triangle
 /// (isDegenerateTriangle: its normal is noise).
 bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle& c, const Vec3& n,
@@ -254,8 +257,8 @@ bool passesThrough(const ShapeDesc& shape, const Pose& pose, const CandidateTria
 
 /// The fallback of Report::through_contacts, for a query whose pipeline
 /// gave no contact: among the candidates whose plane the shape crosses,
-/// those that overlap it (by FCL's own two-sided test, fclTriangleOverlap
-/// with `confirm`'s solver; every candidate when `confirm` is null, for
+/// those that overlap it (by the two-sided test shapeOverlapsTriangle
+/// with `confirm`'s gjk_tolerance; every candidate when `confirm` is null, for
 /// triangles FCL already reported); writes the contact of the one the shape
 /// reaches deepest through to `out` (query frame: the face normal, the depth
 /// that clears the plane, the shape's deepest point) and returns true, or

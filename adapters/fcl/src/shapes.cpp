@@ -1,11 +1,13 @@
 // The shape dispatch: which FCL shapes the pipeline handles, how each maps to
-// the core's query, its support point, and FCL's own per-triangle test.
+// the core's query, its support point, and the fallback's two-sided
+// per-triangle overlap test.
 #include "internal.h"
 
 #include <meshcontact/triangle.h>
 
-#include <fcl/narrowphase/detail/gjk_solver_indep.h>
-#include <fcl/narrowphase/detail/gjk_solver_libccd.h>
+#include <fcl/narrowphase/detail/convexity_based_algorithm/gjk.h>
+#include <fcl/narrowphase/detail/convexity_based_algorithm/minkowski_diff.h>
+#include <fcl/geometry/shape/triangle_p.h>
 
 #include <algorithm>
 #include <cmath>
@@ -352,83 +354,65 @@ Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& directio
 
 namespace {
 
-template <class Solver, class Shape>
-bool overlapWith(const Solver& solver, const ::fcl::CollisionGeometryd& g, const ::fcl::Transform3d& tf,
-                 const Vec3& a, const Vec3& b, const Vec3& c) {
-  return solver.shapeTriangleIntersect(static_cast<const Shape&>(g), tf, a, b, c, nullptr, nullptr, nullptr);
-}
+// GJKSolver_indep's default cap on GJK's iterations.
+constexpr unsigned kFclGjkMaxIterations = 128;
 
-template <class Solver>
-bool overlapAny(const Solver& solver, const ShapeDesc& shape, const ::fcl::Transform3d& tf, const Vec3& a,
-                const Vec3& b, const Vec3& c) {
-  const ::fcl::CollisionGeometryd& g = *shape.geometry;
-  switch (shape.kind) {
-    case ShapeKind::kSphere: return overlapWith<Solver, ::fcl::Sphered>(solver, g, tf, a, b, c);
-    case ShapeKind::kCapsule: return overlapWith<Solver, ::fcl::Capsuled>(solver, g, tf, a, b, c);
-    case ShapeKind::kBox: return overlapWith<Solver, ::fcl::Boxd>(solver, g, tf, a, b, c);
-    case ShapeKind::kCylinder: return overlapWith<Solver, ::fcl::Cylinderd>(solver, g, tf, a, b, c);
-    case ShapeKind::kCone: return overlapWith<Solver, ::fcl::Coned>(solver, g, tf, a, b, c);
-    case ShapeKind::kEllipsoid: return overlapWith<Solver, ::fcl::Ellipsoidd>(solver, g, tf, a, b, c);
-    case ShapeKind::kConvex: return overlapWith<Solver, ::fcl::Convexd>(solver, g, tf, a, b, c);
-  }
-  return false;
-}
-
-// Whether a convex's vertices span no volume: all on one plane, line or
-// point, to within 1e-9 of its size. Its thickness is measured from three
-// of its vertices: v[0], the vertex farthest from it, the one farthest from
-// their line; then the vertex farthest from their plane.
-bool spansNoVolume(const std::vector<::fcl::Vector3d>& v, double size) {
-  if (v.empty()) return true;
-  const double flat = 1e-9 * size;
-  const auto farthest = [&v](auto&& distance) {
-    std::size_t best = 0;
-    double best_distance = -1.0;
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      const double d = distance(v[i]);
-      if (d > best_distance) best = i, best_distance = d;
-    }
-    return std::make_pair(best, best_distance);
-  };
-  const Vec3 p0 = v[0];
-  const Vec3 p1 = v[farthest([&](const Vec3& p) { return (p - p0).norm(); }).first];
-  const Vec3 axis = normalizedOr(p1 - p0, Vec3::Zero());
-  if (axis.isZero()) return true;
-  const auto [i2, off_line] = farthest([&](const Vec3& p) { return (p - p0 - axis * axis.dot(p - p0)).norm(); });
-  if (!(off_line > flat)) return true;
-  const Vec3 normal = normalizedOr(axis.cross(v[i2] - p0), Vec3::Zero());
-  if (normal.isZero()) return true;
-  return !(farthest([&](const Vec3& p) { return std::abs(normal.dot(p - p0)); }).second > flat);
+// FCL's GJK (detail::GJK, what GJKSolver_indep runs first) on the shape and
+// the triangle: "Inside" is an overlap. Only GJK, capped at FCL's
+// gjk_max_iterations: libccd's MPR, the test of fcl::collide's default
+// solver, has loops without an iteration cap and never returned on some
+// pairs fuzz_fcl_adapter found (a degenerate convex, or a cylinder, sunk
+// into a tiny triangle; FCL issue #243). Not GJKSolver_indep's test: it
+// follows an Inside with EPA even when only the boolean is asked (16-83%
+// slower on fcl_bench's sunk poses) and answers "no overlap" when EPA fails.
+template <class Shape>
+bool gjkOverlap(const ::fcl::CollisionGeometryd& g, const ::fcl::Transform3d& tf, const Vec3& a, const Vec3& b,
+                const Vec3& c, const Vec3& guess, double tolerance) {
+  const ::fcl::TriangleP<double> triangle(a, b, c);
+  ::fcl::detail::MinkowskiDiff<double> difference;
+  difference.shapes[0] = &static_cast<const Shape&>(g);
+  difference.shapes[1] = &triangle;
+  difference.toshape1 = tf.linear();                  // shape frame -> triangle (query) frame
+  difference.toshape0 = tf.inverse(Eigen::Isometry);  // query frame -> shape frame
+  ::fcl::detail::GJK<double> gjk(kFclGjkMaxIterations, tolerance);
+  return gjk.evaluate(difference, guess) == ::fcl::detail::GJK<double>::Inside;
 }
 
 }  // namespace
 
-bool fclTriangleOverlap(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
-                        const ::fcl::CollisionRequestd& request) {
+bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,
+                           const Vec3& closest, double tolerance) {
+  switch (shape.kind) {
+    // Closed forms, exact up to rounding: no iteration, and cheaper than any
+    // GJK (FCL's GJK made the capsule's path queries ~30% slower than MPR).
+    case ShapeKind::kSphere: return (closest - pose.translation).squaredNorm() <= shape.radius * shape.radius;
+    case ShapeKind::kCapsule: {
+      const Vec3 axis = pose.rotation.col(2) * shape.half_length;
+      return segmentTriangleDistanceSquared(pose.translation - axis, pose.translation + axis, a, b, c) <=
+             shape.radius * shape.radius;
+    }
+    case ShapeKind::kBox: {
+      const auto local = [&pose](const Vec3& v) { return Vec3(pose.rotation.transpose() * (v - pose.translation)); };
+      return boxOverlapsTriangle(shape.half_extents, local(a), local(b), local(c));
+    }
+    default: break;
+  }
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
   tf.linear() = pose.rotation;
   tf.translation() = pose.translation;
-  // The solver set up as fcl::collide(CollisionObject...) does; but FCL's
-  // own GJK (GST_INDEP) for a convex that spans no volume, whatever the
-  // request's solver: libccd's shape-triangle test (MPR) has loops without
-  // an iteration cap, and on such a convex (a segment 1e9 long sunk into a
-  // triangle 1e-9 across, found by fuzz_fcl_adapter) it never returned
-  // (FCL issue #243), where FCL's GJK stops after gjk_max_iterations.
-  // Not for every shape: FCL's GJK made the drop-in's capsule, box,
-  // cylinder and convex queries on fcl_bench 16-83% slower, through the
-  // sunk poses whose candidates this test confirms.
-  const bool flat_convex =
-      shape.kind == ShapeKind::kConvex &&
-      spansNoVolume(static_cast<const ::fcl::Convexd&>(*shape.geometry).getVertices(), shape.size);
-  if (request.gjk_solver_type == ::fcl::GST_INDEP || flat_convex) {
-    ::fcl::detail::GJKSolver_indep<double> solver;
-    solver.gjk_tolerance = request.gjk_tolerance;
-    solver.epa_tolerance = request.gjk_tolerance;
-    return overlapAny(solver, shape, tf, a, b, c);
+  // GJK's first ray: a point of the Minkowski difference, the shape's
+  // centre minus the triangle's point closest to it (shape frame), so the
+  // first support is taken toward the origin.
+  Vec3 guess = pose.rotation.transpose() * (pose.translation - closest);
+  if (guess.isZero()) guess = Vec3::UnitX();
+  const ::fcl::CollisionGeometryd& g = *shape.geometry;
+  switch (shape.kind) {
+    case ShapeKind::kCylinder: return gjkOverlap<::fcl::Cylinderd>(g, tf, a, b, c, guess, tolerance);
+    case ShapeKind::kCone: return gjkOverlap<::fcl::Coned>(g, tf, a, b, c, guess, tolerance);
+    case ShapeKind::kEllipsoid: return gjkOverlap<::fcl::Ellipsoidd>(g, tf, a, b, c, guess, tolerance);
+    case ShapeKind::kConvex: return gjkOverlap<::fcl::Convexd>(g, tf, a, b, c, guess, tolerance);
+    default: return false;  // the closed forms above
   }
-  ::fcl::detail::GJKSolver_libccd<double> solver;
-  solver.collision_tolerance = request.gjk_tolerance;
-  return overlapAny(solver, shape, tf, a, b, c);
 }
 
 }  // namespace meshcontact::fcl::detail

@@ -64,11 +64,7 @@
 //
 // Threads: all entry points are reentrant. The drop-in collide() keeps its
 // scratch memory in a thread_local Scratch (no allocation per query once
-// warm); the Status variants take the Scratch explicitly. One exception: the
-// fallback of Report::through_contacts asks FCL's own shape-triangle test,
-// and FCL's libccd solver allocates two small objects per call (measured:
-// none for the sphere, about one allocation per query on average for the
-// other shapes on random poses over a terrain).
+// warm); the Status variants take the Scratch explicitly.
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
@@ -215,13 +211,15 @@ struct Report {
   /// 1 when the fallback gave the contact: meshcontact's pipeline gave
   /// none (in collision checking: none before the check reached a triangle
   /// whose plane the shape's origin is behind, see collide() below), but
-  /// FCL's own two-sided test (the request's solver; FCL's GJK for an
-  /// fcl::Convex that spans no volume, where libccd's MPR looped forever)
-  /// finds the shape overlapping a candidate triangle. This happens when
-  /// the shape has passed through a one-sided surface (meshcontact's
-  /// contacts are one-sided, reference §4a: a sphere whose centre is behind every
-  /// triangle it touches gets none) or when a core shape with a rounding
-  /// margin misses a contact the sharp FCL shape makes. One contact is then
+  /// a two-sided overlap test (closed forms for the sphere, capsule and
+  /// box; FCL's GJK, capped at 128 iterations, with the request's
+  /// gjk_tolerance, for the others; not libccd's MPR, which has no cap and
+  /// looped forever on some pairs) finds FCL's sharp shape overlapping a
+  /// candidate triangle. This happens when the shape has passed through a
+  /// one-sided surface (meshcontact's contacts are one-sided, reference §4a:
+  /// a sphere whose centre is behind every triangle it touches gets none) or
+  /// when a core shape with a rounding margin misses a contact the sharp FCL
+  /// shape makes. One contact is then
   /// added, so that the in-collision answer agrees with fcl::collide: on the
   /// overlapping triangle the shape reaches deepest through (collision
   /// checking: the first overlapping one the check visits, nearest first,
@@ -251,9 +249,10 @@ struct Report {
 /// floor would otherwise have every candidate queried, and a support shape's
 /// deep-penetration passes run, before the fallback). The in-collision
 /// answer is the same as with contacts on.
-/// request.gjk_solver_type only affects forwarded pairs and the fallback
-/// test (Report::through_contacts); request.enable_cost forwards the pair to
-/// FCL. On an error nothing is appended.
+/// request.gjk_solver_type only affects forwarded pairs (the fallback's
+/// test is the same whatever the solver, see Report::through_contacts);
+/// request.enable_cost forwards the pair to FCL. On an error nothing is
+/// appended.
 Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, const Options& options,
                Scratch& scratch, Report* report = nullptr);
