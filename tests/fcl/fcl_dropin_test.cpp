@@ -396,6 +396,54 @@ TEST(DropIn, HonoursTheRequest) {
 // floor's plane and the shape's deepest point, all of FCL's sharp shape. The
 // core's CylinderShape is rounded (its support() is up to 0.4 of the margin
 // inside the rims): the rim point and the depth here are the exact ones.
+// A shape sunk into a floor, its centre behind the floor's plane by half
+// of its reach above its centre, crosses the plane by a good part of its
+// size: it overlaps the floor at any scale, and the pipeline's one-sided
+// contacts nearly never see it, so the fallback must. Raised clear of the
+// floor by half its height, it overlaps nothing. At a millimetre, a metre
+// and a kilometre: FCL's tolerances are absolute (gjk_tolerance 1e-6, a
+// squared distance in its GJK's stopping test), and the fallback's GJK,
+// asked with that tolerance as it comes, stopped at its first step for a
+// millimetre shape and missed every such overlap.
+TEST(DropIn, SunkShapesCollideAtEveryScale) {
+  for (const double scale : {1e-3, 1.0, 1e3}) {
+    SceneMesh floor = scenes::flatFloor(8, 8, 0.5, 7);
+    for (double& v : floor.vertices) v *= scale;
+    const ::fcl::CollisionObjectd mesh(fclModel<::fcl::OBBRSSd>(floor));
+    for (ShapeCase shape : allShapes()) {
+      shape.dims *= scale;
+      const auto geometry = shape.make();
+      scenes::Rng rng(31);
+      fcl::Scratch scratch;
+      int through = 0;
+      for (int i = 0; i < 200; ++i) {
+        Pose pose;
+        pose.rotation = rng.rotation();
+        const double up = shape.extentAlong(pose.rotation.transpose() * Vec3::UnitZ());
+        const double down = shape.extentAlong(pose.rotation.transpose() * -Vec3::UnitZ());
+        const bool sunk = i % 2 == 0;
+        pose.translation = Vec3(rng.uniform(1.0, 3.0) * scale, rng.uniform(1.0, 3.0) * scale,
+                                sunk ? -0.5 * up : down + 0.5 * (up + down));
+        const ::fcl::CollisionObjectd object(geometry, toTransform(pose));
+        std::ostringstream config;
+        config << shape.name << " at scale " << scale << ", pose " << i << (sunk ? " (sunk)" : " (clear)");
+        ::fcl::CollisionResultd fcl_result;
+        ::fcl::collide(&mesh, &object, ::fcl::CollisionRequestd(1, false), fcl_result);
+        EXPECT_EQ(fcl_result.isCollision(), sunk) << "fcl::collide: " << config.str();
+        for (const bool contacts : {true, false}) {
+          ::fcl::CollisionResultd result;
+          fcl::Report report;
+          const ::fcl::CollisionRequestd request(contacts ? 100 : 1, contacts);
+          ASSERT_TRUE(fcl::collide(&mesh, &object, request, result, fcl::Options(), scratch, &report).isOk());
+          EXPECT_EQ(result.isCollision(), sunk) << config.str() << (contacts ? ", contacts" : ", checking");
+          through += static_cast<int>(report.through_contacts);
+        }
+      }
+      EXPECT_GT(through, 100) << shape.name << " at scale " << scale << ": the fallback was exercised";
+    }
+  }
+}
+
 TEST(DropIn, PassedThroughContactIsOnTheSharpSurface) {
   auto model = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
   model->beginModel();

@@ -405,12 +405,20 @@ bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3&
   // first support is taken toward the origin.
   Vec3 guess = pose.rotation.transpose() * (pose.translation - closest);
   if (guess.isZero()) guess = Vec3::UnitX();
+  // FCL's GJK stops, answering "apart", when a new support point is within
+  // squared distance `tolerance` of a recent one (gjk-inl.h, "check B"):
+  // an absolute area, tuned for shapes about a metre across. For a shape a
+  // millimetre across, 1e-6 (the default) is its whole size squared and GJK
+  // stopped at its first step (the agreement test in millimetres). Below
+  // unit size the tolerance shrinks with the size squared, so that the test
+  // keeps the reach it has at a metre, relative to the shape.
+  const double t = tolerance * std::min(1.0, shape.size * shape.size);
   const ::fcl::CollisionGeometryd& g = *shape.geometry;
   switch (shape.kind) {
-    case ShapeKind::kCylinder: return gjkOverlap<::fcl::Cylinderd>(g, tf, a, b, c, guess, tolerance);
-    case ShapeKind::kCone: return gjkOverlap<::fcl::Coned>(g, tf, a, b, c, guess, tolerance);
-    case ShapeKind::kEllipsoid: return gjkOverlap<::fcl::Ellipsoidd>(g, tf, a, b, c, guess, tolerance);
-    case ShapeKind::kConvex: return gjkOverlap<::fcl::Convexd>(g, tf, a, b, c, guess, tolerance);
+    case ShapeKind::kCylinder: return gjkOverlap<::fcl::Cylinderd>(g, tf, a, b, c, guess, t);
+    case ShapeKind::kCone: return gjkOverlap<::fcl::Coned>(g, tf, a, b, c, guess, t);
+    case ShapeKind::kEllipsoid: return gjkOverlap<::fcl::Ellipsoidd>(g, tf, a, b, c, guess, t);
+    case ShapeKind::kConvex: return gjkOverlap<::fcl::Convexd>(g, tf, a, b, c, guess, t);
     default: return false;  // the closed forms above
   }
 }
