@@ -391,11 +391,6 @@ TEST(DropIn, HonoursTheRequest) {
   EXPECT_EQ(none.numContacts(), 0u);
 }
 
-// A shape that has passed through a one-sided floor gets the fallback contact
-// (Report::through_contacts): the face normal, the depth that clears the
-// floor's plane and the shape's deepest point, all of FCL's sharp shape. The
-// core's CylinderShape is rounded (its support() is up to 0.4 of the margin
-// inside the rims): the rim point and the depth here are the exact ones.
 // A shape sunk into a floor, its centre behind the floor's plane by half
 // of its reach above its centre, crosses the plane by a good part of its
 // size: it overlaps the floor at any scale, and the pipeline's one-sided
@@ -444,6 +439,11 @@ TEST(DropIn, SunkShapesCollideAtEveryScale) {
   }
 }
 
+// A shape that has passed through a one-sided floor gets the fallback contact
+// (Report::through_contacts): the face normal, the depth that clears the
+// floor's plane and the shape's deepest point, all of FCL's sharp shape. The
+// core's CylinderShape is rounded (its support() is up to 0.4 of the margin
+// inside the rims): the rim point and the depth here are the exact ones.
 TEST(DropIn, PassedThroughContactIsOnTheSharpSurface) {
   auto model = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
   model->beginModel();

@@ -409,7 +409,7 @@ bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3&
   // squared distance `tolerance` of a recent one (gjk-inl.h, "check B"):
   // an absolute area, tuned for shapes about a metre across. For a shape a
   // millimetre across, 1e-6 (the default) is its whole size squared and GJK
-  // stopped at its first step (the agreement test in millimetres). Below
+  // stopped at its first step (DropIn.SunkShapesCollideAtEveryScale). Below
   // unit size the tolerance shrinks with the size squared, so that the test
   // keeps the reach it has at a metre, relative to the shape.
   const double t = tolerance * std::min(1.0, shape.size * shape.size);

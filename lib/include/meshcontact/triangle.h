@@ -1,5 +1,6 @@
 #pragma once
-// Per-triangle geometry used by the narrowphases (and tested on its own).
+// Per-triangle geometry used by the narrowphases and the FCL adapter's
+// fallback (and tested on its own).
 
 #include "meshcontact/geometry.h"
 

@@ -219,9 +219,9 @@ struct Report {
   /// one-sided surface (meshcontact's contacts are one-sided, reference §4a:
   /// a sphere whose centre is behind every triangle it touches gets none) or
   /// when a core shape with a rounding margin misses a contact the sharp FCL
-  /// shape makes. One contact is then
-  /// added, so that the in-collision answer agrees with fcl::collide: on the
-  /// overlapping triangle the shape reaches deepest through (collision
+  /// shape makes. One contact is then added, so that the in-collision answer
+  /// agrees with fcl::collide: on the overlapping triangle the shape reaches
+  /// deepest through (collision
   /// checking: the first overlapping one the check visits, nearest first,
   /// possibly before a later triangle's own contact, see collide() below),
   /// with its face normal (the way out of a one-sided surface), the depth
