@@ -385,7 +385,7 @@ bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3&
   switch (shape.kind) {
     // Closed forms, exact up to rounding: no iteration, and cheaper than any
     // GJK (FCL's GJK made the capsule's path queries ~30% slower than MPR).
-    case ShapeKind::kSphere: return (closest - pose.translation).squaredNorm() <= shape.radius * shape.radius;
+    // A sphere is never asked: passesThrough's ball test is its whole test.
     case ShapeKind::kCapsule: {
       const Vec3 axis = pose.rotation.col(2) * shape.half_length;
       return segmentTriangleDistanceSquared(pose.translation - axis, pose.translation + axis, a, b, c) <=
@@ -419,7 +419,7 @@ bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3&
     case ShapeKind::kCone: return gjkOverlap<::fcl::Coned>(g, tf, a, b, c, guess, t);
     case ShapeKind::kEllipsoid: return gjkOverlap<::fcl::Ellipsoidd>(g, tf, a, b, c, guess, t);
     case ShapeKind::kConvex: return gjkOverlap<::fcl::Convexd>(g, tf, a, b, c, guess, t);
-    default: return false;  // the closed forms above
+    default: return false;  // the closed forms above; a sphere is not asked
   }
 }
 
