@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <future>
+#include <iostream>
+#include <sstream>
 #include <thread>
 
 namespace meshcontact::fcltest {
@@ -593,6 +595,14 @@ struct BadInput {
   }
 };
 
+// The pairs of FCL 0.7 that crash fcl::collide under GST_LIBCCD, one way
+// round, written from the libccd solver's cases (see collide.cpp).
+bool libccdCrashes(const ::fcl::CollisionGeometryd& a, const ::fcl::CollisionGeometryd& b) {
+  const ::fcl::NODE_TYPE s = a.getNodeType(), t = b.getNodeType();
+  const bool aabb_or_kdop = t == ::fcl::BV_AABB || t == ::fcl::BV_KDOP16 || t == ::fcl::BV_KDOP18 || t == ::fcl::BV_KDOP24;
+  return (s == ::fcl::GEOM_HALFSPACE && aabb_or_kdop) || (s == ::fcl::GEOM_PLANE && (aabb_or_kdop || t == ::fcl::GEOM_CONVEX));
+}
+
 ::fcl::Transform3d at(const Vec3& t) {
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
   tf.translation() = t;
@@ -859,6 +869,125 @@ TEST(DropInBadInput, PairFclCannotCollide) {
   b.expectError(&mesh, &triangle, ErrorCode::kInvalidShape, "GEOM_TRIANGLE");
   ::fcl::CollisionObjectd aabb_mesh(fclModel<::fcl::AABBd>(terrain()));
   b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
+}
+
+// The drop-in refuses exactly the pairs fcl::collide cannot collide (it
+// warns on stderr and answers nothing), from its own rules, not from FCL's
+// table (detail::fclCollides): every ordered pair of one object of each node
+// type FCL has, the octree included. FCL's warning is caught on std::cerr,
+// under GST_INDEP (the same table; GST_LIBCCD crashes on some pairs, see
+// below). Under GST_LIBCCD the drop-in refuses those pairs too.
+TEST(DropIn, SupportedPairsAreFcls) {
+  const SceneMesh mesh = scenes::flatFloor(2, 2, 0.5, 3);
+  std::vector<std::shared_ptr<::fcl::CollisionGeometryd>> geometries = {
+      fclModel<::fcl::AABBd>(mesh),
+      fclModel<::fcl::OBBd>(mesh),
+      fclModel<::fcl::RSSd>(mesh),
+      fclModel<::fcl::kIOSd>(mesh),
+      fclModel<::fcl::OBBRSSd>(mesh),
+      fclModel<::fcl::KDOPd<16>>(mesh),
+      fclModel<::fcl::KDOPd<18>>(mesh),
+      fclModel<::fcl::KDOPd<24>>(mesh),
+      std::make_shared<::fcl::Boxd>(0.2, 0.3, 0.4),
+      std::make_shared<::fcl::Sphered>(0.2),
+      std::make_shared<::fcl::Ellipsoidd>(0.2, 0.3, 0.4),
+      std::make_shared<::fcl::Capsuled>(0.2, 0.4),
+      std::make_shared<::fcl::Coned>(0.2, 0.4),
+      std::make_shared<::fcl::Cylinderd>(0.2, 0.4),
+      scenes::fclHexPrism(0.3, 0.2),
+      std::make_shared<::fcl::Planed>(Vec3::UnitZ(), 0.0),
+      std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), 0.0),
+      std::make_shared<::fcl::TrianglePd>(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)),
+  };
+#if FCL_HAVE_OCTOMAP
+  auto tree = std::make_shared<octomap::OcTree>(0.25);
+  tree->updateNode(octomap::point3d(0.5f, 0.5f, 0.0f), true);
+  geometries.push_back(std::make_shared<::fcl::OcTreed>(tree));
+#endif
+  std::vector<bool> seen(::fcl::NODE_COUNT, false);
+  for (const auto& g : geometries) seen[g->getNodeType()] = true;
+  for (int t = ::fcl::BV_AABB; t < ::fcl::NODE_COUNT; ++t) {
+    if (t != ::fcl::GEOM_OCTREE || FCL_HAVE_OCTOMAP) {
+      EXPECT_TRUE(seen[t]) << "no object of node type " << t;
+    }
+  }
+
+  ::fcl::CollisionRequestd indep = contactsRequest();
+  indep.gjk_solver_type = ::fcl::GST_INDEP;
+  int refused = 0, collided = 0, crashing = 0;
+  for (const auto& g1 : geometries) {
+    for (const auto& g2 : geometries) {
+      const ::fcl::CollisionObjectd o1(g1, at(Vec3(0.5, 0.5, 0.1)));
+      const ::fcl::CollisionObjectd o2(g2, at(Vec3(0.6, 0.4, 0.2)));
+      const std::string what = std::to_string(g1->getNodeType()) + " vs " + std::to_string(g2->getNodeType());
+      std::ostringstream warning;
+      std::streambuf* cerr = std::cerr.rdbuf(warning.rdbuf());
+      ::fcl::CollisionResultd theirs;
+      ::fcl::collide(&o1, &o2, indep, theirs);
+      std::cerr.rdbuf(cerr);
+      const bool fcl_refuses = warning.str().find("is not supported") != std::string::npos;
+      const bool crashes = libccdCrashes(*g1, *g2) || libccdCrashes(*g2, *g1);
+
+      for (const bool libccd : {true, false}) {
+        ::fcl::CollisionResultd ours;
+        fcl::Scratch scratch;
+        const Status s = fcl::collide(&o1, &o2, libccd ? contactsRequest() : indep, ours, fcl::Options(), scratch);
+        if (fcl_refuses) {
+          EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << what;
+          EXPECT_NE(s.message().find("FCL has no collision function"), std::string::npos) << what << ": " << s.message();
+        } else if (libccd && crashes) {
+          EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << what;
+          EXPECT_NE(s.message().find("crashes"), std::string::npos) << what << ": " << s.message();
+        } else {
+          EXPECT_TRUE(s.isOk()) << what << (libccd ? " (GST_LIBCCD): " : " (GST_INDEP): ") << s.message();
+        }
+      }
+      refused += fcl_refuses;
+      crashing += crashes && !fcl_refuses;
+      collided += !fcl_refuses;
+    }
+  }
+  // Refused: a BVH against a BVH of another of the 8 types, a TriangleP
+  // against anything.
+  const int n = static_cast<int>(geometries.size());
+  EXPECT_EQ(refused, 8 * 7 + 2 * n - 1);
+  EXPECT_EQ(collided, n * n - refused);
+  EXPECT_EQ(crashing, 18);  // 4 BVs x plane, halfspace, both orders; convex-plane, both orders
+}
+
+// The pairs the drop-in refuses under GST_LIBCCD (detail::fclLibccdCrashes)
+// do crash fcl::collide: a plane or a halfspace against a BVHModel with
+// AABB or k-DOP nodes whose leaf box it meets, a plane through a convex.
+// When this fails, FCL has mended the pair: lift the refusal.
+TEST(DropInBadInput, PairsFclCrashesOn) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const SceneMesh mesh = scenes::flatFloor(2, 2, 0.5, 3);
+  const std::vector<std::shared_ptr<::fcl::CollisionGeometryd>> models = {
+      fclModel<::fcl::AABBd>(mesh), fclModel<::fcl::KDOPd<16>>(mesh), fclModel<::fcl::KDOPd<18>>(mesh),
+      fclModel<::fcl::KDOPd<24>>(mesh)};
+  const std::vector<std::shared_ptr<::fcl::CollisionGeometryd>> planes = {
+      std::make_shared<::fcl::Planed>(Vec3(1, 0, 1).normalized(), 0.0),
+      std::make_shared<::fcl::Halfspaced>(Vec3(1, 0, 1).normalized(), 0.0)};
+  const auto convex = scenes::fclHexPrism(0.3, 0.2);
+  const auto crash = [](const std::shared_ptr<::fcl::CollisionGeometryd>& a,
+                        const std::shared_ptr<::fcl::CollisionGeometryd>& b) {
+    // The floor (0..1 in x and y) centred on the origin; the planes and the
+    // convex at it: every plane cuts the floor and the convex.
+    const auto place = [](const ::fcl::CollisionGeometryd& g) {
+      return at(g.getObjectType() == ::fcl::OT_BVH ? Vec3(-0.5, -0.5, 0.0) : Vec3::Zero());
+    };
+    const ::fcl::CollisionObjectd o1(a, place(*a)), o2(b, place(*b));
+    ::fcl::CollisionResultd result;
+    ::fcl::collide(&o1, &o2, ::fcl::CollisionRequestd(1, false), result);
+  };
+  for (const auto& plane : planes) {
+    for (const auto& model : models) {
+      EXPECT_DEATH(crash(model, plane), "") << model->getNodeType() << " vs " << plane->getNodeType();
+      EXPECT_DEATH(crash(plane, model), "") << plane->getNodeType() << " vs " << model->getNodeType();
+    }
+  }
+  EXPECT_DEATH(crash(convex, planes[0]), "");
+  EXPECT_DEATH(crash(planes[0], convex), "");
 }
 
 // FCL's cone as the adapter's support shape: its nearest core points (the

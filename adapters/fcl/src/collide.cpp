@@ -2,8 +2,8 @@
 // model's own BVH for mesh-vs-shape pairs, fcl::collide for the rest.
 #include "internal.h"
 
+#include <fcl/config.h>  // FCL_HAVE_OCTOMAP
 #include <fcl/narrowphase/collision.h>
-#include <fcl/narrowphase/detail/gjk_solver_libccd.h>
 #include <meshcontact/triangle.h>
 
 #include <algorithm>
@@ -234,8 +234,50 @@ Status checkAnyModel(const ::fcl::CollisionGeometryd* g, const char* what) {
 
 }  // namespace
 
+// FCL 0.7's table of collision functions (CollisionFunctionMatrix's
+// constructor, collision_func_matrix-inl.h), as rules: any two primitive
+// shapes (box through halfspace in NODE_TYPE, so not GEOM_TRIANGLE); a BVH
+// with a shape or with a BVH of its own BV type; an octree with a shape, a
+// BVH or an octree, both ways, when FCL was built with octomap. Not the
+// table itself: getCollisionFunctionLookTable's one instantiation holds
+// every BVH-shape collider (~80 s of compiling per build, for one lookup).
+// DropIn.SupportedPairsAreFcls compares every pair with fcl::collide.
+bool detail::fclCollides(::fcl::NODE_TYPE bvh_first, ::fcl::NODE_TYPE other) {
+  const auto shape = [](::fcl::NODE_TYPE t) { return t >= ::fcl::GEOM_BOX && t <= ::fcl::GEOM_HALFSPACE; };
+  const auto bvh = [](::fcl::NODE_TYPE t) { return t >= ::fcl::BV_AABB && t <= ::fcl::BV_KDOP24; };
+  if (shape(bvh_first) && shape(other)) return true;
+  if (bvh(bvh_first) && (shape(other) || other == bvh_first)) return true;
+#if FCL_HAVE_OCTOMAP
+  const auto octree = [](::fcl::NODE_TYPE t) { return t == ::fcl::GEOM_OCTREE; };
+  if (octree(bvh_first) && (shape(other) || bvh(other) || octree(other))) return true;
+  if (octree(other) && (shape(bvh_first) || bvh(bvh_first))) return true;
+#endif
+  return false;
+}
+
+// FCL 0.7's libccd solver (gjk_solver_libccd-inl.h) has closed forms for a
+// plane or a halfspace against each primitive shape but a convex against a
+// plane, and against a triangle given with its transform (the leaf tests of
+// the oriented BVs: OBB, RSS, kIOS, OBBRSS), not one in the world frame (the
+// generic leaf test of AABB and k-DOP models). The pairs it has none for go
+// to libccd's MPR with the plane's support function, which FCL leaves null:
+// a call through a null pointer as soon as the two (a leaf's box, for a
+// model) overlap. GST_INDEP has no such hole. DropInBadInput.PairsFclCrashesOn
+// shows each crash.
+bool detail::fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
+  const auto planar = [](::fcl::NODE_TYPE t) { return t == ::fcl::GEOM_PLANE || t == ::fcl::GEOM_HALFSPACE; };
+  const auto generic_leaf = [](::fcl::NODE_TYPE t) {
+    return t == ::fcl::BV_AABB || t == ::fcl::BV_KDOP16 || t == ::fcl::BV_KDOP18 || t == ::fcl::BV_KDOP24;
+  };
+  const auto one_way = [&](::fcl::NODE_TYPE a, ::fcl::NODE_TYPE b) {
+    return planar(a) && (generic_leaf(b) || (a == ::fcl::GEOM_PLANE && b == ::fcl::GEOM_CONVEX));
+  };
+  return one_way(t1, t2) || one_way(t2, t1);
+}
+
 // fcl::collide prints to stderr and returns 0 for pairs it cannot handle,
-// and reads a null node array for an unfinished model.
+// crashes on a few (above), and reads a null node array for an unfinished
+// model.
 Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report) {
   report.route = Report::Route::kForwarded;
@@ -250,10 +292,15 @@ Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::Collision
   ::fcl::NODE_TYPE t1 = g1->getNodeType(), t2 = g2->getNodeType();
   // fcl::collide looks (BVH, shape) pairs up with the BVH first.
   if (g1->getObjectType() == ::fcl::OT_GEOM && g2->getObjectType() == ::fcl::OT_BVH) std::swap(t1, t2);
-  const auto& table = ::fcl::getCollisionFunctionLookTable<::fcl::detail::GJKSolver_libccd<double>>();
-  if (t1 < 0 || t2 < 0 || t1 >= ::fcl::NODE_COUNT || t2 >= ::fcl::NODE_COUNT || !table.collision_matrix[t1][t2])
+  if (!detail::fclCollides(t1, t2))
     return {ErrorCode::kInvalidShape, std::string("FCL has no collision function for ") + nodeTypeName(t1) +
                                           " vs " + nodeTypeName(t2)};
+  if (request.gjk_solver_type == ::fcl::GST_LIBCCD && detail::fclLibccdCrashes(t1, t2))
+    return {ErrorCode::kInvalidShape, std::string("fcl::collide crashes on ") + nodeTypeName(t1) + " vs " +
+                                          nodeTypeName(t2) +
+                                          " with GST_LIBCCD (FCL 0.7 asks libccd for a plane's or a "
+                                          "halfspace's support point, which it does not define); use GST_INDEP, "
+                                          "or for a model an OBB, RSS, kIOS or OBBRSS hierarchy"};
   const std::size_t before = result.numContacts();
   ::fcl::collide(o1, o2, request, result);
   report.added = result.numContacts() - before;

@@ -11,7 +11,10 @@
 //      A BVHModel (AABB, OBB, RSS, kIOS or OBBRSS, triangles) against a
 //      sphere, capsule, box, cylinder, cone, ellipsoid or convex runs the
 //      meshcontact pipeline on the model's own BVH (no copy of the model);
-//      every other pair goes to fcl::collide unchanged.
+//      every other pair goes to fcl::collide unchanged, except those it
+//      cannot collide (it would warn on stderr) or, under GST_LIBCCD,
+//      crashes on (a BVHModel with AABB or k-DOP nodes against a Plane or
+//      a Halfspace, a Convex against a Plane): these are a clear error.
 //      defaultCollisionFunction: FCL's DefaultCollisionFunction for
 //      broadphase managers, calling this collide() on each pair.
 //   2. postFilter(o1, o2, request, raw, cleaned): for code that keeps calling
