@@ -599,8 +599,10 @@ struct BadInput {
 // round, written from the libccd solver's cases (see collide.cpp).
 bool libccdCrashes(const ::fcl::CollisionGeometryd& a, const ::fcl::CollisionGeometryd& b) {
   const ::fcl::NODE_TYPE s = a.getNodeType(), t = b.getNodeType();
-  const bool aabb_or_kdop = t == ::fcl::BV_AABB || t == ::fcl::BV_KDOP16 || t == ::fcl::BV_KDOP18 || t == ::fcl::BV_KDOP24;
-  return (s == ::fcl::GEOM_HALFSPACE && aabb_or_kdop) || (s == ::fcl::GEOM_PLANE && (aabb_or_kdop || t == ::fcl::GEOM_CONVEX));
+  const bool aabb_or_kdop =
+      t == ::fcl::BV_AABB || t == ::fcl::BV_KDOP16 || t == ::fcl::BV_KDOP18 || t == ::fcl::BV_KDOP24;
+  return (s == ::fcl::GEOM_HALFSPACE && aabb_or_kdop) ||
+         (s == ::fcl::GEOM_PLANE && (aabb_or_kdop || t == ::fcl::GEOM_CONVEX));
 }
 
 ::fcl::Transform3d at(const Vec3& t) {
@@ -934,7 +936,8 @@ TEST(DropIn, SupportedPairsAreFcls) {
         const Status s = fcl::collide(&o1, &o2, libccd ? contactsRequest() : indep, ours, fcl::Options(), scratch);
         if (fcl_refuses) {
           EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << what;
-          EXPECT_NE(s.message().find("FCL has no collision function"), std::string::npos) << what << ": " << s.message();
+          EXPECT_NE(s.message().find("FCL has no collision function"), std::string::npos)
+              << what << ": " << s.message();
         } else if (libccd && crashes) {
           EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << what;
           EXPECT_NE(s.message().find("crashes"), std::string::npos) << what << ": " << s.message();
