@@ -873,6 +873,44 @@ TEST(DropInBadInput, PairFclCannotCollide) {
   b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
 }
 
+// A forwarded pair with a shape of NaN, infinite or negative size, or a
+// plane with a NaN offset: fcl::collide answers them with NaN normals and
+// depths (a sphere of radius NaN against a box), or a wrong answer. The
+// drop-in gives the error the mesh-vs-shape route gives, in either slot.
+TEST(DropInBadInput, ForwardedShapesOfBadSize) {
+  BadInput b;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.4));
+  const ::fcl::CollisionObjectd halfspace(std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), 0.0));
+  const std::vector<std::shared_ptr<::fcl::CollisionGeometryd>> bad = {
+      std::make_shared<::fcl::Sphered>(nan),
+      std::make_shared<::fcl::Sphered>(-0.3),
+      std::make_shared<::fcl::Capsuled>(nan, 1.0),
+      std::make_shared<::fcl::Boxd>(nan, 1.0, 1.0),
+      std::make_shared<::fcl::Cylinderd>(0.2, std::numeric_limits<double>::infinity()),
+      std::make_shared<::fcl::Coned>(1.0, nan),
+      std::make_shared<::fcl::Ellipsoidd>(nan, 1.0, 1.0),
+      scenes::fclHexPrism(nan, 0.2),
+  };
+  for (const auto& g : bad) {
+    const ::fcl::CollisionObjectd shape(g, at(Vec3(0.05, 0.02, 0.1)));
+    b.expectError(&shape, &box, ErrorCode::kInvalidShape, "o1: ");
+    b.expectError(&box, &shape, ErrorCode::kInvalidShape, "o2: ");
+    b.expectError(&shape, &halfspace, ErrorCode::kInvalidShape, "o1: ");
+  }
+  const ::fcl::CollisionObjectd plane(std::make_shared<::fcl::Planed>(Vec3::UnitZ(), nan));
+  b.expectError(&box, &plane, ErrorCode::kInvalidShape, "o2: the plane's normal or offset is not finite");
+  const ::fcl::CollisionObjectd open(std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), nan));
+  b.expectError(&open, &box, ErrorCode::kInvalidShape, "o1: the plane's normal or offset is not finite");
+  // The same shapes with sizes in range are forwarded.
+  const ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(0.05, 0.02, 0.1)));
+  ::fcl::CollisionResultd result;
+  fcl::Report report;
+  ASSERT_TRUE(fcl::collide(&sphere, &box, contactsRequest(), result, fcl::Options(), b.scratch, &report).isOk());
+  EXPECT_EQ(report.route, fcl::Report::Route::kForwarded);
+  EXPECT_EQ(result.numContacts(), 1u);
+}
+
 // The drop-in refuses exactly the pairs fcl::collide cannot collide (it
 // warns on stderr and answers nothing), from its own rules, not from FCL's
 // table (detail::fclCollides): every ordered pair of one object of each node

@@ -3,6 +3,8 @@
 #include "internal.h"
 
 #include <fcl/config.h>  // FCL_HAVE_OCTOMAP
+#include <fcl/geometry/shape/halfspace.h>
+#include <fcl/geometry/shape/plane.h>
 #include <fcl/narrowphase/collision.h>
 #include <meshcontact/triangle.h>
 
@@ -275,17 +277,57 @@ bool detail::fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
   return one_way(t1, t2) || one_way(t2, t1);
 }
 
+namespace {
+
+// A primitive with a NaN, infinite or negative size, or a plane with a
+// non-finite normal or offset: fcl::collide answers with non-finite
+// contacts (a sphere of radius NaN against a box: a NaN normal and depth)
+// or a wrong answer. The seven shapes the pipeline takes get the checks of
+// the mesh-vs-shape route, which runs their query on no candidate.
+Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what, Scratch::Impl& sc) {
+  ShapeDesc shape;
+  if (detail::describeShape(g, shape)) {
+    const Status s = detail::collideCandidates(shape, Pose::identity(), nullptr, 0, QuerySettings(), sc.query,
+                                               sc.contacts);
+    if (!s) return {s.code(), std::string(what) + ": " + s.message()};
+    return Status::ok();
+  }
+  const auto planar = [what](const Vec3& n, double d) -> Status {
+    if (!n.allFinite() || !std::isfinite(d))
+      return {ErrorCode::kInvalidShape, std::string(what) + ": the plane's normal or offset is not finite"};
+    return Status::ok();
+  };
+  switch (g->getNodeType()) {
+    case ::fcl::GEOM_PLANE: {
+      const auto& p = static_cast<const ::fcl::Planed&>(*g);
+      return planar(p.n, p.d);
+    }
+    case ::fcl::GEOM_HALFSPACE: {
+      const auto& h = static_cast<const ::fcl::Halfspaced&>(*g);
+      return planar(h.n, h.d);
+    }
+    default: return Status::ok();
+  }
+}
+
+}  // namespace
+
 // fcl::collide prints to stderr and returns 0 for pairs it cannot handle,
-// crashes on a few (above), and reads a null node array for an unfinished
-// model.
+// crashes on a few (above), reads a null node array for an unfinished
+// model, and answers with NaNs for a shape of NaN size (above).
 Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
-               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report) {
+                       const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Scratch::Impl& sc,
+                       Report& report) {
   report.route = Report::Route::kForwarded;
   const ::fcl::CollisionGeometryd* g1 = o1->collisionGeometry().get();
   const ::fcl::CollisionGeometryd* g2 = o2->collisionGeometry().get();
   Status s = checkAnyModel(g1, "o1");
   if (!s) return s;
   s = checkAnyModel(g2, "o2");
+  if (!s) return s;
+  s = checkForwardedShape(g1, "o1", sc);
+  if (!s) return s;
+  s = checkForwardedShape(g2, "o2", sc);
   if (!s) return s;
   if (!o1->getTransform().matrix().allFinite() || !o2->getTransform().matrix().allFinite())
     return {ErrorCode::kInvalidPose, "a transform has a non-finite entry"};
@@ -326,9 +368,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   MeshDesc mesh;
   ShapeDesc shape;
   bool mesh_first = true;
-  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first)) return detail::forward(o1, o2, request, result, rep);
+  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first))
+    return detail::forward(o1, o2, request, result, scratch.impl(), rep);
   // Cost sources are FCL's own output: let FCL compute them.
-  if (request.enable_cost) return detail::forward(o1, o2, request, result, rep);
+  if (request.enable_cost) return detail::forward(o1, o2, request, result, scratch.impl(), rep);
 
   const ::fcl::CollisionObjectd& mesh_object = mesh_first ? *o1 : *o2;
   const ::fcl::CollisionObjectd& shape_object = mesh_first ? *o2 : *o1;
