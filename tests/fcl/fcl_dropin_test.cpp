@@ -873,10 +873,11 @@ TEST(DropInBadInput, PairFclCannotCollide) {
   b.expectError(&mesh, &aabb_mesh, ErrorCode::kInvalidShape, "BV_OBBRSS vs BV_AABB");
 }
 
-// A forwarded pair with a shape of NaN, infinite or negative size, or a
-// plane with a NaN offset: fcl::collide answers them with NaN normals and
-// depths (a sphere of radius NaN against a box), or a wrong answer. The
-// drop-in gives the error the mesh-vs-shape route gives, in either slot.
+// A forwarded pair with a shape of NaN, infinite or negative size, a convex
+// with a NaN vertex, or a plane with a NaN offset: fcl::collide answers them
+// with NaN normals and depths (a sphere of radius NaN against a box), or a
+// wrong answer. The drop-in refuses them, in either slot; a size of zero
+// is forwarded (FCL answers a flat box).
 TEST(DropInBadInput, ForwardedShapesOfBadSize) {
   BadInput b;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -902,13 +903,16 @@ TEST(DropInBadInput, ForwardedShapesOfBadSize) {
   b.expectError(&box, &plane, ErrorCode::kInvalidShape, "o2: the plane's normal or offset is not finite");
   const ::fcl::CollisionObjectd open(std::make_shared<::fcl::Halfspaced>(Vec3::UnitZ(), nan));
   b.expectError(&open, &box, ErrorCode::kInvalidShape, "o1: the plane's normal or offset is not finite");
-  // The same shapes with sizes in range are forwarded.
+  // A sphere of radius 0.3 and a flat box are forwarded, and collide.
   const ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(0.05, 0.02, 0.1)));
-  ::fcl::CollisionResultd result;
-  fcl::Report report;
-  ASSERT_TRUE(fcl::collide(&sphere, &box, contactsRequest(), result, fcl::Options(), b.scratch, &report).isOk());
-  EXPECT_EQ(report.route, fcl::Report::Route::kForwarded);
-  EXPECT_EQ(result.numContacts(), 1u);
+  const ::fcl::CollisionObjectd flat(std::make_shared<::fcl::Boxd>(0.4, 0.4, 0.0));
+  for (const ::fcl::CollisionObjectd* other : {&box, &flat}) {
+    ::fcl::CollisionResultd result;
+    fcl::Report report;
+    ASSERT_TRUE(fcl::collide(&sphere, other, contactsRequest(), result, fcl::Options(), b.scratch, &report).isOk());
+    EXPECT_EQ(report.route, fcl::Report::Route::kForwarded);
+    EXPECT_EQ(result.numContacts(), 1u);
+  }
 }
 
 // The drop-in refuses exactly the pairs fcl::collide cannot collide (it

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -279,32 +280,62 @@ bool detail::fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
 
 namespace {
 
-// A primitive with a NaN, infinite or negative size, or a plane with a
-// non-finite normal or offset: fcl::collide answers with non-finite
-// contacts (a sphere of radius NaN against a box: a NaN normal and depth)
-// or a wrong answer. The seven shapes the pipeline takes get the checks of
-// the mesh-vs-shape route, which runs their query on no candidate.
-Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what, Scratch::Impl& sc) {
-  ShapeDesc shape;
-  if (detail::describeShape(g, shape)) {
-    const Status s = detail::collideCandidates(shape, Pose::identity(), nullptr, 0, QuerySettings(), sc.query,
-                                               sc.contacts);
-    if (!s) return {s.code(), std::string(what) + ": " + s.message()};
+// A primitive with a NaN, infinite or negative size, a convex with a
+// non-finite vertex, or a plane with a non-finite normal or offset:
+// fcl::collide answers with non-finite contacts (a sphere of radius NaN
+// against a box: a NaN normal and depth) or a wrong answer (a sphere of
+// radius -1 in contact with a box). Sizes of zero are FCL's to answer (a
+// flat box), as every other forwarded input.
+Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what) {
+  const auto sizes = [g, what](std::initializer_list<double> values) -> Status {
+    for (const double v : values)
+      if (!std::isfinite(v) || v < 0.0)
+        return {ErrorCode::kInvalidShape, std::string(what) + ": a size of the " + nodeTypeName(g->getNodeType()) +
+                                              " is NaN, infinite or negative: " + std::to_string(v)};
     return Status::ok();
-  }
-  const auto planar = [what](const Vec3& n, double d) -> Status {
+  };
+  const auto plane = [what](const Vec3& n, double d) -> Status {
     if (!n.allFinite() || !std::isfinite(d))
       return {ErrorCode::kInvalidShape, std::string(what) + ": the plane's normal or offset is not finite"};
     return Status::ok();
   };
   switch (g->getNodeType()) {
+    case ::fcl::GEOM_SPHERE: return sizes({static_cast<const ::fcl::Sphered&>(*g).radius});
+    case ::fcl::GEOM_CAPSULE: {
+      const auto& c = static_cast<const ::fcl::Capsuled&>(*g);
+      return sizes({c.radius, c.lz});
+    }
+    case ::fcl::GEOM_BOX: {
+      const Vec3& side = static_cast<const ::fcl::Boxd&>(*g).side;
+      return sizes({side.x(), side.y(), side.z()});
+    }
+    case ::fcl::GEOM_CYLINDER: {
+      const auto& c = static_cast<const ::fcl::Cylinderd&>(*g);
+      return sizes({c.radius, c.lz});
+    }
+    case ::fcl::GEOM_CONE: {
+      const auto& c = static_cast<const ::fcl::Coned&>(*g);
+      return sizes({c.radius, c.lz});
+    }
+    case ::fcl::GEOM_ELLIPSOID: {
+      const Vec3& r = static_cast<const ::fcl::Ellipsoidd&>(*g).radii;
+      return sizes({r.x(), r.y(), r.z()});
+    }
+    case ::fcl::GEOM_CONVEX: {
+      const auto& vertices = static_cast<const ::fcl::Convexd&>(*g).getVertices();
+      for (std::size_t i = 0; i < vertices.size(); ++i)
+        if (!vertices[i].allFinite())
+          return {ErrorCode::kInvalidShape,
+                  std::string(what) + ": convex vertex " + std::to_string(i) + " is not finite"};
+      return Status::ok();
+    }
     case ::fcl::GEOM_PLANE: {
       const auto& p = static_cast<const ::fcl::Planed&>(*g);
-      return planar(p.n, p.d);
+      return plane(p.n, p.d);
     }
     case ::fcl::GEOM_HALFSPACE: {
       const auto& h = static_cast<const ::fcl::Halfspaced&>(*g);
-      return planar(h.n, h.d);
+      return plane(h.n, h.d);
     }
     default: return Status::ok();
   }
@@ -316,8 +347,7 @@ Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what,
 // crashes on a few (above), reads a null node array for an unfinished
 // model, and answers with NaNs for a shape of NaN size (above).
 Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
-                       const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Scratch::Impl& sc,
-                       Report& report) {
+                       const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report) {
   report.route = Report::Route::kForwarded;
   const ::fcl::CollisionGeometryd* g1 = o1->collisionGeometry().get();
   const ::fcl::CollisionGeometryd* g2 = o2->collisionGeometry().get();
@@ -325,9 +355,9 @@ Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::Collision
   if (!s) return s;
   s = checkAnyModel(g2, "o2");
   if (!s) return s;
-  s = checkForwardedShape(g1, "o1", sc);
+  s = checkForwardedShape(g1, "o1");
   if (!s) return s;
-  s = checkForwardedShape(g2, "o2", sc);
+  s = checkForwardedShape(g2, "o2");
   if (!s) return s;
   if (!o1->getTransform().matrix().allFinite() || !o2->getTransform().matrix().allFinite())
     return {ErrorCode::kInvalidPose, "a transform has a non-finite entry"};
@@ -368,10 +398,9 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   MeshDesc mesh;
   ShapeDesc shape;
   bool mesh_first = true;
-  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first))
-    return detail::forward(o1, o2, request, result, scratch.impl(), rep);
+  if (!detail::classifyPair(g1, g2, mesh, shape, mesh_first)) return detail::forward(o1, o2, request, result, rep);
   // Cost sources are FCL's own output: let FCL compute them.
-  if (request.enable_cost) return detail::forward(o1, o2, request, result, scratch.impl(), rep);
+  if (request.enable_cost) return detail::forward(o1, o2, request, result, rep);
 
   const ::fcl::CollisionObjectd& mesh_object = mesh_first ? *o1 : *o2;
   const ::fcl::CollisionObjectd& shape_object = mesh_first ? *o2 : *o1;

@@ -336,8 +336,7 @@ bool fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2);
 /// collide()'s forwarding: fcl::collide unchanged, after the checks that
 /// keep FCL from crashing or printing to stderr.
 Status forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
-               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Scratch::Impl& scratch,
-               Report& report);
+               const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report);
 
 }  // namespace detail
 }  // namespace meshcontact::fcl

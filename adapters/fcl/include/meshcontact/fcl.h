@@ -14,9 +14,9 @@
 //      every other pair goes to fcl::collide unchanged, except those it
 //      cannot collide (it would warn on stderr) or, under GST_LIBCCD,
 //      crashes on (a BVHModel with AABB or k-DOP nodes against a Plane or
-//      a Halfspace, a Convex against a Plane), and shapes whose size the
-//      pipeline would refuse (NaN, infinite, negative; FCL can answer them
-//      with NaN contacts): these are a clear error.
+//      a Halfspace, a Convex against a Plane), and shapes of NaN, infinite
+//      or negative size (FCL can answer them with NaN contacts): these are
+//      a clear error.
 //      defaultCollisionFunction: FCL's DefaultCollisionFunction for
 //      broadphase managers, calling this collide() on each pair.
 //   2. postFilter(o1, o2, request, raw, cleaned): for code that keeps calling
