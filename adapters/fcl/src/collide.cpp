@@ -283,9 +283,9 @@ namespace {
 // A primitive with a NaN, infinite or negative size, a convex with a
 // non-finite vertex, or a plane with a non-finite normal or offset:
 // fcl::collide answers with non-finite contacts (a sphere of radius NaN
-// against a box: a NaN normal and depth) or a wrong answer (a sphere of
-// radius -1 in contact with a box). Sizes of zero are FCL's to answer (a
-// flat box), as every other forwarded input.
+// against a box: a NaN normal and depth) or an answer for a shape that
+// cannot exist (a sphere of radius -1 in contact with a box). Sizes of zero
+// are FCL's to answer (a flat box), as every other forwarded input.
 Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what) {
   const auto sizes = [g, what](std::initializer_list<double> values) -> Status {
     for (const double v : values)
@@ -294,6 +294,8 @@ Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what)
                                               " is NaN, infinite or negative: " + std::to_string(v)};
     return Status::ok();
   };
+  const auto radiusAndLength = [&sizes](const auto& shape) { return sizes({shape.radius, shape.lz}); };
+  const auto threeSizes = [&sizes](const Vec3& v) { return sizes({v.x(), v.y(), v.z()}); };
   const auto plane = [what](const Vec3& n, double d) -> Status {
     if (!n.allFinite() || !std::isfinite(d))
       return {ErrorCode::kInvalidShape, std::string(what) + ": the plane's normal or offset is not finite"};
@@ -301,26 +303,11 @@ Status checkForwardedShape(const ::fcl::CollisionGeometryd* g, const char* what)
   };
   switch (g->getNodeType()) {
     case ::fcl::GEOM_SPHERE: return sizes({static_cast<const ::fcl::Sphered&>(*g).radius});
-    case ::fcl::GEOM_CAPSULE: {
-      const auto& c = static_cast<const ::fcl::Capsuled&>(*g);
-      return sizes({c.radius, c.lz});
-    }
-    case ::fcl::GEOM_BOX: {
-      const Vec3& side = static_cast<const ::fcl::Boxd&>(*g).side;
-      return sizes({side.x(), side.y(), side.z()});
-    }
-    case ::fcl::GEOM_CYLINDER: {
-      const auto& c = static_cast<const ::fcl::Cylinderd&>(*g);
-      return sizes({c.radius, c.lz});
-    }
-    case ::fcl::GEOM_CONE: {
-      const auto& c = static_cast<const ::fcl::Coned&>(*g);
-      return sizes({c.radius, c.lz});
-    }
-    case ::fcl::GEOM_ELLIPSOID: {
-      const Vec3& r = static_cast<const ::fcl::Ellipsoidd&>(*g).radii;
-      return sizes({r.x(), r.y(), r.z()});
-    }
+    case ::fcl::GEOM_CAPSULE: return radiusAndLength(static_cast<const ::fcl::Capsuled&>(*g));
+    case ::fcl::GEOM_CYLINDER: return radiusAndLength(static_cast<const ::fcl::Cylinderd&>(*g));
+    case ::fcl::GEOM_CONE: return radiusAndLength(static_cast<const ::fcl::Coned&>(*g));
+    case ::fcl::GEOM_BOX: return threeSizes(static_cast<const ::fcl::Boxd&>(*g).side);
+    case ::fcl::GEOM_ELLIPSOID: return threeSizes(static_cast<const ::fcl::Ellipsoidd&>(*g).radii);
     case ::fcl::GEOM_CONVEX: {
       const auto& vertices = static_cast<const ::fcl::Convexd&>(*g).getVertices();
       for (std::size_t i = 0; i < vertices.size(); ++i)
