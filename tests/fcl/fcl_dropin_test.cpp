@@ -917,10 +917,10 @@ TEST(DropInBadInput, ForwardedShapesOfBadSize) {
 
 // The drop-in refuses exactly the pairs fcl::collide cannot collide (it
 // warns on stderr and answers nothing), from its own rules, not from FCL's
-// table (detail::fclCollides): every ordered pair of one object of each node
-// type FCL has, the octree included. FCL's warning is caught on std::cerr,
-// under GST_INDEP (the same table; GST_LIBCCD crashes on some pairs, see
-// below). Under GST_LIBCCD the drop-in refuses those pairs too.
+// table (fclCollides in collide.cpp): every ordered pair of one object of
+// each node type FCL has, the octree included. FCL's warning is caught on
+// std::cerr, under GST_INDEP (the same table; GST_LIBCCD crashes on some
+// pairs, see below). Under GST_LIBCCD the drop-in refuses those pairs too.
 TEST(DropIn, SupportedPairsAreFcls) {
   const SceneMesh mesh = scenes::flatFloor(2, 2, 0.5, 3);
   std::vector<std::shared_ptr<::fcl::CollisionGeometryd>> geometries = {
@@ -1000,9 +1000,10 @@ TEST(DropIn, SupportedPairsAreFcls) {
   EXPECT_EQ(crashing, 18);  // 4 BVs x plane, halfspace, both orders; convex-plane, both orders
 }
 
-// The pairs the drop-in refuses under GST_LIBCCD (detail::fclLibccdCrashes)
-// do crash fcl::collide: a plane or a halfspace against a BVHModel with
-// AABB or k-DOP nodes whose leaf box it meets, a plane through a convex.
+// The pairs the drop-in refuses under GST_LIBCCD (fclLibccdCrashes in
+// collide.cpp) do crash fcl::collide: a plane or a halfspace against a
+// BVHModel with AABB or k-DOP nodes whose leaf box it meets, a plane
+// through a convex.
 // When this fails, FCL has mended the pair: lift the refusal.
 TEST(DropInBadInput, PairsFclCrashesOn) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");

@@ -235,8 +235,6 @@ Status checkAnyModel(const ::fcl::CollisionGeometryd* g, const char* what) {
   }
 }
 
-}  // namespace
-
 // FCL 0.7's table of collision functions (CollisionFunctionMatrix's
 // constructor, collision_func_matrix-inl.h), as rules: any two primitive
 // shapes (box through halfspace in NODE_TYPE, so not GEOM_TRIANGLE); a BVH
@@ -245,7 +243,7 @@ Status checkAnyModel(const ::fcl::CollisionGeometryd* g, const char* what) {
 // table itself: getCollisionFunctionLookTable's one instantiation holds
 // every BVH-shape collider (~80 s of compiling per build, for one lookup).
 // DropIn.SupportedPairsAreFcls compares every pair with fcl::collide.
-bool detail::fclCollides(::fcl::NODE_TYPE bvh_first, ::fcl::NODE_TYPE other) {
+bool fclCollides(::fcl::NODE_TYPE bvh_first, ::fcl::NODE_TYPE other) {
   const auto shape = [](::fcl::NODE_TYPE t) { return t >= ::fcl::GEOM_BOX && t <= ::fcl::GEOM_HALFSPACE; };
   const auto bvh = [](::fcl::NODE_TYPE t) { return t >= ::fcl::BV_AABB && t <= ::fcl::BV_KDOP24; };
   if (shape(bvh_first) && shape(other)) return true;
@@ -267,7 +265,7 @@ bool detail::fclCollides(::fcl::NODE_TYPE bvh_first, ::fcl::NODE_TYPE other) {
 // a call through a null pointer as soon as the two (a leaf's box, for a
 // model) overlap. GST_INDEP has no such hole. DropInBadInput.PairsFclCrashesOn
 // shows each crash.
-bool detail::fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
+bool fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
   const auto planar = [](::fcl::NODE_TYPE t) { return t == ::fcl::GEOM_PLANE || t == ::fcl::GEOM_HALFSPACE; };
   const auto generic_leaf = [](::fcl::NODE_TYPE t) {
     return t == ::fcl::BV_AABB || t == ::fcl::BV_KDOP16 || t == ::fcl::BV_KDOP18 || t == ::fcl::BV_KDOP24;
@@ -277,8 +275,6 @@ bool detail::fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2) {
   };
   return one_way(t1, t2) || one_way(t2, t1);
 }
-
-namespace {
 
 // A primitive with a NaN, infinite or negative size, a convex with a
 // non-finite vertex, or a plane with a non-finite normal or offset:
@@ -351,10 +347,10 @@ Status detail::forward(const ::fcl::CollisionObjectd* o1, const ::fcl::Collision
   ::fcl::NODE_TYPE t1 = g1->getNodeType(), t2 = g2->getNodeType();
   // fcl::collide looks (BVH, shape) pairs up with the BVH first.
   if (g1->getObjectType() == ::fcl::OT_GEOM && g2->getObjectType() == ::fcl::OT_BVH) std::swap(t1, t2);
-  if (!detail::fclCollides(t1, t2))
+  if (!fclCollides(t1, t2))
     return {ErrorCode::kInvalidShape, std::string("FCL has no collision function for ") + nodeTypeName(t1) +
                                           " vs " + nodeTypeName(t2)};
-  if (request.gjk_solver_type == ::fcl::GST_LIBCCD && detail::fclLibccdCrashes(t1, t2))
+  if (request.gjk_solver_type == ::fcl::GST_LIBCCD && fclLibccdCrashes(t1, t2))
     return {ErrorCode::kInvalidShape, std::string("fcl::collide crashes on ") + nodeTypeName(t1) + " vs " +
                                           nodeTypeName(t2) +
                                           " with GST_LIBCCD (FCL 0.7 asks libccd for a plane's or a "

@@ -323,18 +323,8 @@ Status checkPair(const MeshDesc& mesh, const ::fcl::CollisionObjectd& mesh_objec
                  const ::fcl::CollisionObjectd& shape_object, const char* mesh_name, const char* shape_name,
                  Pose& mesh_pose, Pose& shape_in_model);
 
-/// Whether fcl::collide has a collision function for node types
-/// (bvh_first, other): for a shape and a BVH, the BVH's type first, as
-/// fcl::collide looks the pair up. Its answer for any other pair is a
-/// warning on stderr and no collision.
-bool fclCollides(::fcl::NODE_TYPE bvh_first, ::fcl::NODE_TYPE other);
-
-/// Whether fcl::collide with GST_LIBCCD crashes on node types t1 and t2 (in
-/// either order) as soon as the two overlap (see collide.cpp).
-bool fclLibccdCrashes(::fcl::NODE_TYPE t1, ::fcl::NODE_TYPE t2);
-
 /// collide()'s forwarding: fcl::collide unchanged, after the checks that
-/// keep FCL from crashing or printing to stderr.
+/// keep FCL from crashing, printing to stderr or answering with NaNs.
 Status forward(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                const ::fcl::CollisionRequestd& request, ::fcl::CollisionResultd& result, Report& report);
 

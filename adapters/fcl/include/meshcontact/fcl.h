@@ -226,9 +226,9 @@ struct Report {
   /// when a core shape with a rounding margin misses a contact the sharp FCL
   /// shape makes. One contact is then added, so that the in-collision answer
   /// agrees with fcl::collide: on the overlapping triangle the shape reaches
-  /// deepest through (collision
-  /// checking: the first overlapping one the check visits, nearest first,
-  /// possibly before a later triangle's own contact, see collide() below),
+  /// deepest through (collision checking: the first overlapping one the
+  /// check visits, nearest first, possibly before a later triangle's own
+  /// contact, see collide() below),
   /// with its face normal (the way out of a one-sided surface), the depth
   /// that clears its plane, and the shape's deepest point.
   std::size_t through_contacts = 0;
