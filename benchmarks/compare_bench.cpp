@@ -5,8 +5,14 @@
 // single thread, one query per iteration, the list cycled.
 //
 //   compare_bench [--placements N] [--seed S] [--scenes a,b] [--methods a,b]
+//                 [--iterations N]
 //                 [Google Benchmark flags, e.g. --benchmark_repetitions=5
 //                  --benchmark_report_aggregates_only=true --benchmark_out=F.json]
+//
+// --iterations N runs each benchmark for exactly N queries, once (after the
+// warm-up pass over the list): scripts/count-instructions runs it under
+// callgrind twice, N apart, so that the difference is N queries and nothing
+// else (no scene build, no warm-up, no structure built on first use).
 //
 // Names: sphere/<scene>/<method> and box/<scene>/<method> (planar scenes).
 // Counters: contacts = contacts per query. Only one scene and one method are
@@ -29,6 +35,7 @@ namespace {
 
 int g_placements = 20000;
 std::uint64_t g_seed = 2026;
+long g_iterations = 0;  // 0: Google Benchmark chooses
 
 struct SceneCache {
   std::string name;
@@ -138,12 +145,21 @@ int main(int argc, char** argv) {
     else if (a == "--seed" && has_value) g_seed = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--scenes" && has_value) scenes = split(argv[++i]);
     else if (a == "--methods" && has_value) methods = split(argv[++i]);
+    else if (a == "--iterations" && has_value) g_iterations = std::atol(argv[++i]);
     else rest.push_back(argv[i]);
   }
   if (g_placements <= 0) {
     std::fprintf(stderr, "--placements must be positive\n");
     return 2;
   }
+  if (g_iterations < 0) {
+    std::fprintf(stderr, "--iterations must be positive (or 0: Google Benchmark chooses)\n");
+    return 2;
+  }
+  const auto fixed = [](benchmark::internal::Benchmark* b) {
+    b->Unit(benchmark::kNanosecond);
+    if (g_iterations > 0) b->Iterations(g_iterations)->Repetitions(1);
+  };
   const std::vector<std::string> available = peers::methodNames();
   for (const std::string& scene : scenes) {
     const peers::CompareScene probe = peers::compareScene(scene == "terrain1m" ? "flat" : scene, g_seed);
@@ -158,16 +174,14 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "method '%s' not in this build (skipped)\n", method.c_str());
         continue;
       }
-      benchmark::RegisterBenchmark(("sphere/" + scene + "/" + method).c_str(), BM_Sphere, scene, method)
-          ->Unit(benchmark::kNanosecond);
+      fixed(benchmark::RegisterBenchmark(("sphere/" + scene + "/" + method).c_str(), BM_Sphere, scene, method));
     }
     if (scene != "terrain1m" && probe.planar) {
       for (const std::string& method : methods) {
         bool known = false;
         for (const auto& m : available) known = known || m == method;
         if (!known || method == "naive-trinormal") continue;
-        benchmark::RegisterBenchmark(("box/" + scene + "/" + method).c_str(), BM_Box, scene, method)
-            ->Unit(benchmark::kNanosecond);
+        fixed(benchmark::RegisterBenchmark(("box/" + scene + "/" + method).c_str(), BM_Box, scene, method));
       }
     }
   }
