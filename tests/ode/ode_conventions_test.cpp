@@ -12,7 +12,9 @@
 #include <meshcontact/meshcontact.h>
 #include <meshcontact/shapes.h>
 
+#include <array>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <thread>
@@ -558,6 +560,103 @@ TEST(OdeConventions, ErrorsAreReportedNotPrinted) {
             }())
                 .code(),
             ErrorCode::kInvalidSettings);
+}
+
+// A shape or trimesh pose with NaN or Inf in it is an error (counted, and
+// in lastError()), never a contact: the sphere's rotation included, which
+// its query does not read.
+TEST(OdeConventions, NonFinitePosesAreErrorsNotContacts) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  OdeMesh om(scenes::flatFloor(4, 4, 0.5, 2));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    const char* name;
+    dGeomID shape;
+    bool mesh_pose;  // the bad value goes into the trimesh's pose, not the shape's
+    int slot;        // 0-2: position component; 3-14: rotation entry (ODE's 3x4 layout)
+    double value;
+  };
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  dGeomID box = dCreateBox(nullptr, 0.4, 0.4, 0.4);
+  const Case cases[] = {
+      {"sphere position NaN", sphere, false, 1, nan}, {"sphere position Inf", sphere, false, 0, inf},
+      {"sphere rotation NaN", sphere, false, 3, nan}, {"box rotation NaN", box, false, 8, nan},
+      {"trimesh position NaN", sphere, true, 1, nan}, {"trimesh rotation NaN", sphere, true, 8, nan},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    for (dGeomID g : {sphere, box}) {
+      dGeomSetPosition(g, 1.0, 1.0, 0.1);  // resting in the floor: contacts when the pose is good
+      dMatrix3 identity;
+      dRSetIdentity(identity);
+      dGeomSetRotation(g, identity);
+    }
+    dGeomSetPosition(om.geom, 0, 0, 0);
+    dMatrix3 identity;
+    dRSetIdentity(identity);
+    dGeomSetRotation(om.geom, identity);
+    dContactGeom contacts[8];
+    ASSERT_GT(dCollide(om.geom, c.shape, 8, contacts, sizeof(dContactGeom)), 0);
+    const dGeomID target = c.mesh_pose ? om.geom : c.shape;
+    if (c.slot < 3) {
+      dVector3 p = {1.0, 1.0, 0.1, 0.0};
+      if (c.mesh_pose) p[0] = p[1] = p[2] = 0.0;
+      p[c.slot] = c.value;
+      dGeomSetPosition(target, p[0], p[1], p[2]);
+    } else {
+      dMatrix3 R;
+      dRSetIdentity(R);
+      R[c.slot - 3] = c.value;
+      dGeomSetRotation(target, R);
+    }
+    ode::resetStatistics();
+    EXPECT_EQ(dCollide(om.geom, c.shape, 8, contacts, sizeof(dContactGeom)), 0);
+    EXPECT_EQ(dCollide(c.shape, om.geom, 8, contacts, sizeof(dContactGeom)), 0);
+    EXPECT_EQ(ode::statistics().errors, 2u);
+    EXPECT_FALSE(ode::lastError().empty());
+  }
+  dGeomDestroy(sphere);
+  dGeomDestroy(box);
+}
+
+// The build wrappers refuse, before ODE sees them, arrays that ODE's build
+// would end the process on (an empty index array: an assertion in Debian's
+// libode) or read past (an index naming no vertex).
+TEST(OdeConventions, BuildWrappersRefuseArraysOdeCannotBuild) {
+  Session session;
+  const std::vector<double> v = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+  const std::vector<float> vf(v.begin(), v.end());
+  const std::vector<dReal> vs = {0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 1, 0, 0};  // dVector3 each
+  const int stride = 3 * sizeof(dTriIndex);
+  dTriMeshDataID data = dGeomTriMeshDataCreate();
+  // The count apart from the array: an empty array passes a valid pointer.
+  const auto all = [&](const std::vector<dTriIndex>& idx, int vertex_count, int n) {
+    return std::array<Status, 3>{
+        ode::buildTriMeshDataDouble(data, v.data(), 3 * sizeof(double), vertex_count, idx.data(), n, stride),
+        ode::buildTriMeshDataSingle(data, vf.data(), 3 * sizeof(float), vertex_count, idx.data(), n, stride),
+        ode::buildTriMeshDataSimple(data, vs.data(), vertex_count, idx.data(), n)};
+  };
+  for (const Status& s : all({0, 1, 2}, 4, 0)) EXPECT_EQ(s.code(), ErrorCode::kEmptyMesh) << s.message();
+  for (const Status& s : all({0, 1, 2}, 0, 3)) EXPECT_EQ(s.code(), ErrorCode::kEmptyMesh) << s.message();
+  for (const dTriIndex bad : {dTriIndex{4}, dTriIndex{1000000}, static_cast<dTriIndex>(0x7fffffff)})
+    for (const Status& s : all({0, 1, 2, 1, 3, bad}, 4, 6)) {
+      EXPECT_EQ(s.code(), ErrorCode::kIndexOutOfRange) << s.message();
+      EXPECT_NE(s.message().find("triangle 1 corner 2"), std::string::npos) << s.message();
+    }
+  // The same arrays with valid indices build, and the mesh collides.
+  const std::vector<dTriIndex> good = {0, 1, 2, 1, 3, 2};
+  for (const Status& s : all(good, 4, 6)) EXPECT_TRUE(s.isOk()) << s.message();
+  ASSERT_TRUE(ode::installColliders().isOk());
+  dGeomID trimesh = dCreateTriMesh(nullptr, data, nullptr, nullptr, nullptr);
+  dGeomID sphere = dCreateSphere(nullptr, 0.25);
+  dGeomSetPosition(sphere, 0.6, 0.6, 0.2);
+  dContactGeom c[4];
+  EXPECT_EQ(dCollide(trimesh, sphere, 4, c, sizeof(dContactGeom)), 1) << ode::lastError();
+  dGeomDestroy(sphere);
+  dGeomDestroy(trimesh);
+  dGeomTriMeshDataDestroy(data);
 }
 
 // Two threads collide their own sphere geoms with their own trimesh geoms over

@@ -58,6 +58,11 @@ Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
   out.pose = geomPose(shape);
   switch (cls) {
     case dSphereClass:
+      // The query reads only the centre, but a rotation with NaN or Inf in
+      // it is a body state gone bad: an error, as for every other shape (the
+      // core checks their poses) and as the FCL adapter has it for spheres.
+      if (!out.pose.rotation.allFinite())
+        return {ErrorCode::kInvalidPose, "sphere geom's rotation is not finite"};
       out.kind = ShapeKind::kSphere;
       out.radius = static_cast<double>(dGeomSphereGetRadius(shape));
       return Status::ok();

@@ -202,6 +202,25 @@ Status checkArrays(const void* vertices, int vertex_stride, int vertex_count, co
     return {ErrorCode::kInvalidSettings, "buildTriMeshData: vertex_stride " + std::to_string(vertex_stride) +
                                              " or tri_stride " + std::to_string(tri_stride) +
                                              " is smaller than one vertex / one triangle"};
+  // ODE is never called with what would end the process or read out of
+  // bounds: its OPCODE build asserts on an empty index array (Debian's libode
+  // keeps its assertions: "ODE INTERNAL ERROR 1: assertion "indexCount"
+  // failed in buildData()"), and it reads every vertex an index names.
+  if (index_count == 0 || vertex_count == 0)
+    return {ErrorCode::kEmptyMesh, "buildTriMeshData: no triangles or no vertices (vertex_count " +
+                                       std::to_string(vertex_count) + ", index_count " +
+                                       std::to_string(index_count) + ")"};
+  const auto* base = static_cast<const unsigned char*>(indices);
+  for (int t = 0; t < index_count / 3; ++t)
+    for (int k = 0; k < 3; ++k) {
+      dTriIndex index;
+      std::memcpy(&index, base + static_cast<std::size_t>(t) * tri_stride + k * sizeof(dTriIndex), sizeof index);
+      const auto v = static_cast<long long>(index);
+      if (v < 0 || v >= vertex_count)
+        return {ErrorCode::kIndexOutOfRange, "buildTriMeshData: triangle " + std::to_string(t) + " corner " +
+                                                 std::to_string(k) + " references vertex " + std::to_string(v) +
+                                                 " of " + std::to_string(vertex_count)};
+    }
   return Status::ok();
 }
 

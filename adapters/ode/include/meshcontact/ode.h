@@ -134,7 +134,9 @@ Settings currentSettings();
 /// arguments, same lifetime rule (the arrays must outlive the data).
 /// Errors (ODE is then not called): kInvalidSettings for a null array, a
 /// negative count, an index count that is not a multiple of 3, or a stride
-/// smaller than one element.
+/// smaller than one element; kEmptyMesh for no triangles or no vertices
+/// (ODE's own build asserts, ending the process); kIndexOutOfRange for an
+/// index that names no vertex (ODE would read past the array).
 Status buildTriMeshDataDouble(dTriMeshDataID data, const void* vertices, int vertex_stride, int vertex_count,
                               const void* indices, int index_count, int tri_stride);
 Status buildTriMeshDataSingle(dTriMeshDataID data, const void* vertices, int vertex_stride, int vertex_count,
