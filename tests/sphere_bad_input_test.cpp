@@ -2,6 +2,9 @@
 // no partially filled output.
 #include "test_support.h"
 
+#include <meshcontact/filter.h>
+#include <meshcontact/shapes.h>
+
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -304,6 +307,94 @@ TEST(Ranges, CandidateCornersBeyondTheSupportedRangeAreErrors) {
   EXPECT_FALSE(contact);
   expectError(probe.touches(bad, contact), ErrorCode::kNonFiniteVertex, "corner 0");
   EXPECT_FALSE(contact);
+}
+
+// A null array with a count above 0 is an error at every entry point that
+// takes one, never a read through the null pointer.
+TEST(NullArrays, AreErrorsWithACountAboveZero) {
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());
+  QueryScratch scratch;
+  std::vector<Contact> contacts(1);
+  std::vector<CandidateTriangle> candidates(1);
+  const QuerySettings settings;
+  const Pose pose = Pose::identity();
+  const CylinderShape cylinder(Cylinder{0.2, 0.2});
+  const auto instances = [&](const char* name, const Status& s) {
+    SCOPED_TRACE(name);
+    expectError(s, ErrorCode::kMeshNotBuilt, "instances is null with count 2");
+  };
+  instances("sphere", collideSphere(nullptr, 2, Sphere{Vec3(0.2, 0.2, 0.1), 0.2}, settings, scratch, contacts));
+  instances("capsule", collideCapsule(nullptr, 2, Capsule{0.1, 0.2}, pose, settings, scratch, contacts));
+  instances("box", collideBox(nullptr, 2, Box{Vec3(0.1, 0.1, 0.1)}, pose, settings, scratch, contacts));
+  instances("cylinder", collideCylinder(nullptr, 2, Cylinder{0.2, 0.2}, pose, settings, scratch, contacts));
+  instances("convex", collideConvex(nullptr, 2, cylinder, pose, settings, scratch, contacts));
+  instances("gather", gatherCandidates(nullptr, 2, Vec3::Zero(), Vec3::Ones(), KeyMode::kAuto, scratch, candidates));
+  EXPECT_TRUE(candidates.empty());
+  instances("gather near sphere", gatherCandidatesNearSphere(nullptr, 2, Sphere{Vec3::Zero(), 1.0}, KeyMode::kAuto,
+                                                             scratch, candidates));
+  EXPECT_EQ(resolveKeyMode(nullptr, 1, KeyMode::kAuto), KeyMode::kVertexPosition);
+  // Count 0 with a null array is an empty query, not an error.
+  EXPECT_TRUE(collideSphere(nullptr, 0, Sphere{Vec3::Zero(), 1.0}, settings, scratch, contacts).isOk());
+  EXPECT_TRUE(contacts.empty());
+
+  const auto array = [&](const char* name, const Status& s, const char* what) {
+    SCOPED_TRACE(name);
+    expectError(s, ErrorCode::kInvalidSettings, std::string(what) + " is null with count 3");
+  };
+  const Sphere sphere{Vec3(0.2, 0.2, 0.1), 0.2};
+  array("sphere", collideSphereCandidates(sphere, nullptr, 3, settings, scratch, contacts), "candidates");
+  array("capsule", collideCapsuleCandidates(Capsule{0.1, 0.2}, pose, nullptr, 3, settings, scratch, contacts),
+        "candidates");
+  array("box", collideBoxCandidates(Box{Vec3(0.1, 0.1, 0.1)}, pose, nullptr, 3, settings, scratch, contacts),
+        "candidates");
+  array("cylinder", collideCylinderCandidates(Cylinder{0.2, 0.2}, pose, nullptr, 3, settings, scratch, contacts),
+        "candidates");
+  array("convex", collideConvexCandidates(cylinder, pose, nullptr, 3, settings, scratch, contacts), "candidates");
+  array("position keys", assignPositionKeys(nullptr, 3, scratch), "candidates");
+  array("position keys from indices", assignPositionKeysFromIndices(nullptr, 3, scratch), "candidates");
+  TrianglePatch patches[3];
+  array("filter, candidates", filterPatches(nullptr, patches, 3, 1.0, settings, scratch, contacts), "candidates");
+  candidates.resize(3);
+  array("filter, patches", filterPatches(candidates.data(), nullptr, 3, 1.0, settings, scratch, contacts), "patches");
+}
+
+// filterPatches reads the keys of a patch's edge or vertex: a feature index
+// beyond 2 (or a type that is none of the three) is refused, not read.
+TEST(FilterPatches, FeatureOutsideTheTriangleIsAnError) {
+  std::vector<CandidateTriangle> candidates(2);
+  candidates[0] = {{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}, {0, 1, 2}, 0, 0};
+  candidates[1] = {{Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)}, {1, 3, 2}, 0, 1};
+  TrianglePatch patches[2];
+  for (TrianglePatch& p : patches) {
+    p.count = 1;
+    p.points[0] = Vec3(0.5, 0.5, 0.0);
+  }
+  patches[1].feature = Feature::edge(2);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  const QuerySettings settings;
+  ASSERT_TRUE(filterPatches(candidates.data(), patches, 2, 1.0, settings, scratch, contacts).isOk());
+  for (const Feature bad : {Feature{FeatureType::kEdge, 3}, Feature{FeatureType::kVertex, 200},
+                            Feature{static_cast<FeatureType>(9), 0}, Feature{FeatureType::kFace, 1}}) {
+    patches[1].feature = bad;
+    contacts.assign(1, Contact{});
+    expectError(filterPatches(candidates.data(), patches, 2, 1.0, settings, scratch, contacts),
+                ErrorCode::kInvalidSettings, "patch 1 (mesh 0, triangle 1): feature");
+    EXPECT_TRUE(contacts.empty());
+  }
+}
+
+// normalizedOr's "never NaN": also for a NaN after the first component,
+// which maxCoeff() passes over.
+TEST(NormalizedOr, NaNOrInfinityAnywhereGivesTheFallback) {
+  for (int k = 0; k < 3; ++k)
+    for (const double bad : {kNaN, kInf, -kInf}) {
+      Vec3 v(1.0, 1.0, 1.0);
+      v[k] = bad;
+      EXPECT_EQ(normalizedOr(v, Vec3::UnitZ()), Vec3::UnitZ()) << "component " << k << " = " << bad;
+    }
+  EXPECT_NEAR((normalizedOr(Vec3(1e-300, 0, 1e-300), Vec3::UnitZ()) - Vec3(1, 0, 1).normalized()).norm(), 0.0, 1e-15);
 }
 
 TEST(Status, CodesHaveNames) {

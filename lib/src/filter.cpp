@@ -21,6 +21,15 @@ namespace {
 Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle& c) {
   const std::string where = "patch " + std::to_string(i) + " (mesh " + std::to_string(c.mesh) + ", triangle " +
                             std::to_string(c.triangle) + ")";
+  // The filter reads the keys of edge or vertex `index` (voided_features.h):
+  // an index beyond 2 would read past them.
+  const bool face = p.feature.type == FeatureType::kFace && p.feature.index == 0;
+  const bool edge_or_vertex =
+      (p.feature.type == FeatureType::kEdge || p.feature.type == FeatureType::kVertex) && p.feature.index < 3;
+  if (!face && !edge_or_vertex)
+    return {ErrorCode::kInvalidSettings, where + ": feature (type " + std::to_string(static_cast<int>(p.feature.type)) +
+                                             ", index " + std::to_string(p.feature.index) +
+                                             ") is not the face (index 0), an edge 0..2 or a vertex 0..2"};
   if (p.count < 1 || p.count > 4)
     return {ErrorCode::kInvalidSettings, where + ": point count must be 1..4, got " + std::to_string(p.count)};
   if (!p.normal.allFinite() || !(std::abs(p.normal.norm() - 1.0) <= 1e-6))
@@ -33,9 +42,16 @@ Status checkPatch(const TrianglePatch& p, std::size_t i, const CandidateTriangle
   return Status::ok();
 }
 
+Status checkArray(const void* array, std::size_t count, const char* what) {
+  if (array == nullptr && count > 0)
+    return {ErrorCode::kInvalidSettings, std::string(what) + " is null with count " + std::to_string(count)};
+  return Status::ok();
+}
+
 }  // namespace
 
 Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
+  if (Status s = checkArray(candidates, count, "candidates"); !s) return s;
   QueryScratch::Impl& sc = scratch.impl();
   sc.positions.reset(3 * count);
   for (std::size_t i = 0; i < count; ++i) {
@@ -49,6 +65,7 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
 }
 
 Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch) {
+  if (Status s = checkArray(candidates, count, "candidates"); !s) return s;
   QueryScratch::Impl& sc = scratch.impl();
   sc.positions.reset(3 * count);
   // A run of candidates of one mesh shares a generation of the index cache
@@ -83,6 +100,8 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
     return {ErrorCode::kInvalidSettings, "length_scale must be finite and > 0, got " + std::to_string(length_scale)};
   Status s = detail::checkManifoldSettings(settings);
   if (!s) return s;
+  if (s = checkArray(candidates, count, "candidates"); !s) return s;
+  if (s = checkArray(patches, count, "patches"); !s) return s;
   for (std::size_t i = 0; i < count; ++i) {
     s = checkPatch(patches[i], i, candidates[i]);
     if (!s) return s;

@@ -24,7 +24,8 @@ QueryScratch& QueryScratch::operator=(QueryScratch&&) noexcept = default;
 
 KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode requested) {
   if (requested != KeyMode::kAuto) return requested;
-  if (count == 1 && instances[0].mesh && !instances[0].mesh->hasDuplicateVertices()) return KeyMode::kVertexIndex;
+  if (count == 1 && instances != nullptr && instances[0].mesh && !instances[0].mesh->hasDuplicateVertices())
+    return KeyMode::kVertexIndex;
   return KeyMode::kVertexPosition;
 }
 
@@ -45,6 +46,8 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
               const OrientedBox* box_bound, KeyMode key_mode, QueryScratch& scratch,
               std::vector<CandidateTriangle>& out) {
   out.clear();
+  if (instances == nullptr && count > 0)
+    return {ErrorCode::kMeshNotBuilt, "instances is null with count " + std::to_string(count)};
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};

@@ -65,6 +65,8 @@ Status candidateCornerError(const CandidateTriangle& c, std::size_t i, int k, co
 }
 
 Status checkCandidates(const CandidateTriangle* candidates, std::size_t count) {
+  if (candidates == nullptr && count > 0)
+    return {ErrorCode::kInvalidSettings, "candidates is null with count " + std::to_string(count)};
   if (allInRange(candidates, count)) return Status::ok();
   for (std::size_t i = 0; i < count; ++i)
     for (int k = 0; k < 3; ++k)

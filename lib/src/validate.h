@@ -24,7 +24,8 @@ Status checkContactDistance(double contact_distance);
 /// built mesh's vertices are (TriangleMesh::build): the narrowphases' bounds
 /// on overflow and round-off assume it, and a NaN corner would otherwise
 /// end as a candidate without a contact. kNonFiniteVertex names the first
-/// candidate and corner that is not.
+/// candidate and corner that is not; kInvalidSettings for a null array with
+/// a count above 0.
 Status checkCandidates(const CandidateTriangle* candidates, std::size_t count);
 /// kNonFiniteVertex naming candidate i (its mesh and triangle) and corner k,
 /// then `problem` and the corner's coordinates.

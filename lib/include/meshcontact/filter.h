@@ -29,7 +29,8 @@ namespace meshcontact {
 /// vertex indices may not identify shared vertices (duplicated vertices,
 /// several meshes). Keys are valid for one query: they are dense ids drawn
 /// from `scratch`, which the next gatherCandidates / assignPositionKeys call
-/// reuses. Errors: kNonFiniteVertex (names the candidate and corner).
+/// reuses. Errors: kNonFiniteVertex (names the candidate and corner),
+/// kInvalidSettings (`candidates` null with count > 0).
 Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch);
 
 /// assignPositionKeys() for a midphase that knows each corner's vertex index
@@ -72,10 +73,11 @@ struct TrianglePatch {
 /// before the reduction); the result does not depend on the order of the
 /// input. The contacts' normals are the patches' normals, renormalized.
 /// settings.trace, when set, gets one entry per patch.
-/// Errors: kInvalidSettings (a patch whose count is not 1..4, whose normal is
+/// Errors: kInvalidSettings (a patch whose feature is not the face (index 0),
+/// an edge 0..2 or a vertex 0..2, whose count is not 1..4, whose normal is
 /// not finite and unit within 1e-6, or whose distance, points or depths are
 /// not finite: names the patch; or bad manifold settings; or a length_scale
-/// that is not finite and > 0).
+/// that is not finite and > 0; or a null array with count > 0).
 Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* patches, std::size_t count,
                      double length_scale, const QuerySettings& settings, QueryScratch& scratch,
                      std::vector<Contact>& contacts);

@@ -89,7 +89,11 @@ inline Vec3 normalizedOr(const Vec3& v, const Vec3& fallback) {
   const double m = v.cwiseAbs().maxCoeff();
   if (!(m > 0.0) || !std::isfinite(m)) return fallback;
   const Vec3 u = v / m;
-  return u / u.norm();
+  // maxCoeff() passes over a NaN that is not the first component: the norm
+  // catches it (NaN), as it would an infinity.
+  const double n = u.norm();
+  if (!std::isfinite(n)) return fallback;
+  return u / n;
 }
 
 /// Which feature of a triangle a contact comes from. Triangle (v0, v1, v2):

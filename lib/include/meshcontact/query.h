@@ -63,8 +63,10 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
 /// Stage 1, the midphase. Replaces `out` with every non-degenerate triangle of
 /// every instance whose bounds overlap the query-frame box [lo, hi]. Order:
 /// instance by instance, the hierarchy's (breadth first) within one.
-/// Errors: kInvalidShape (box not finite or lo > hi), then kMeshNotBuilt or
-/// kInvalidPose for the first instance that has one; `out` is then empty.
+/// Errors: kMeshNotBuilt (`instances` null with count > 0), kInvalidShape
+/// (box not finite or lo > hi), then kMeshNotBuilt or kInvalidPose for the
+/// first instance that has one; `out` is then empty. The whole pipelines
+/// (collideSphere(instances, ...) and the other shapes') report the same.
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out);
 
