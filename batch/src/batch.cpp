@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
@@ -27,7 +28,13 @@ struct BatchScratch::Impl {
     if (!arena || arena_threads != max_threads) {
       // task_arena::automatic is a static const without a definition in
       // oneTBB 2021: read its value, never bind a reference to it.
-      const int slots = max_threads == 0 ? static_cast<int>(tbb::task_arena::automatic) + 0 : max_threads;
+      // Capped at the parallelism oneTBB allows the process (the hardware's
+      // threads unless a tbb::global_control says otherwise): more slots
+      // add nothing, and oneTBB 2021 crashed when an arena of 70,000 slots
+      // was destroyed (65,536 worked).
+      const auto allowed = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+      const int slots = max_threads == 0 ? static_cast<int>(tbb::task_arena::automatic) + 0
+                                         : static_cast<int>(std::min<std::size_t>(max_threads, allowed));
       arena = std::make_unique<tbb::task_arena>(slots);
       arena_threads = max_threads;
     }
@@ -105,7 +112,9 @@ Status collideBatch(const MeshInstance* instances, std::size_t instance_count, c
 
   BatchScratch::Impl& impl = scratch.impl();
   const std::size_t block = settings.block_size;
-  const std::size_t blocks = (count + block - 1) / block;
+  // Rounded up without count + block - 1, which wraps for a block_size near
+  // SIZE_MAX (then no block ran and every query came back empty, as ok).
+  const std::size_t blocks = count / block + (count % block != 0);
   if (impl.blocks.size() < blocks) impl.blocks.resize(blocks);
   const QuerySettings& query_settings = settings.query;
 
@@ -120,7 +129,7 @@ Status collideBatch(const MeshInstance* instances, std::size_t instance_count, c
           for (std::size_t b = range.begin(); b != range.end(); ++b) {
             std::vector<Contact>& block_contacts = impl.blocks[b];
             block_contacts.clear();
-            const std::size_t end = std::min(count, (b + 1) * block);
+            const std::size_t end = b * block + std::min(block, count - b * block);  // (b + 1) * block may wrap
             for (std::size_t i = b * block; i < end; ++i) {
               Status s = collideOne(instances, instance_count, queries[i], query_settings, query_scratch, contacts);
               if (s) {

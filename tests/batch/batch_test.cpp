@@ -282,5 +282,28 @@ TEST_F(BatchTest, EmptyBatchAndBatchLevelErrors) {
   for (std::size_t i = 0; i < queries.size(); ++i) EXPECT_EQ(out.contactCount(i), 1u) << "query " << i;
 }
 
+// Extreme but valid settings answer every query: a block_size near SIZE_MAX
+// (the block count once wrapped to 0: every query came back empty, as ok),
+// and a max_threads far beyond the machine (an arena of 70,000 slots made
+// oneTBB crash when the scratch was destroyed).
+TEST_F(BatchTest, ExtremeBlockSizesAndThreadCountsAnswerEveryQuery) {
+  const TriangleMesh mesh = testing::buildMesh(scenes::flatFloor(4, 4, 0.5, 1));
+  const MeshInstance instance{&mesh, Pose::identity()};
+  const std::vector<BatchQuery> queries(5, BatchQuery::ofSphere({Vec3(1.1, 1.13, 0.1), 0.2}));
+  const std::size_t max = std::numeric_limits<std::size_t>::max();
+  for (const std::size_t block : {max, max - 1, max / 2 + 1, std::size_t{3}})
+    for (const int threads : {0, 1, 70000, std::numeric_limits<int>::max()}) {
+      BatchSettings settings;
+      settings.block_size = block;
+      settings.max_threads = threads;
+      BatchScratch scratch;
+      BatchOutput out;
+      ASSERT_TRUE(collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out).isOk());
+      EXPECT_EQ(out.failed, 0u);
+      ASSERT_EQ(out.contacts.size(), queries.size()) << "block_size " << block << ", max_threads " << threads;
+      for (std::size_t i = 0; i < queries.size(); ++i) EXPECT_EQ(out.contactCount(i), 1u) << "query " << i;
+    }
+}
+
 }  // namespace
 }  // namespace meshcontact

@@ -105,6 +105,8 @@ struct BatchSettings {
   /// otherwise: one trace cannot be filled by many threads).
   QuerySettings query;
   /// Worker threads at most; 0 = all hardware threads (oneTBB's default).
+  /// Larger values are capped at the parallelism oneTBB allows the process
+  /// (the hardware's threads, unless a tbb::global_control changes it).
   int max_threads = 0;
   /// Queries per parallel block (>= 1). Blocks are fixed by the query index,
   /// not by the threads, so this changes speed only, never results.
