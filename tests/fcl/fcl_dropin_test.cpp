@@ -164,6 +164,57 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
   EXPECT_EQ(cache.size(), 0u);
 }
 
+// A cached model changed so that its arrays moved (rebuilt with
+// beginModel() ... endModel(): FCL frees the old ones; updated: FCL swaps its
+// vertex buffers) is walked in place, not through the stale entry, which
+// read freed vertices (a phantom contact on the old surface) or missed the
+// new surface (no contact). Added again, it is cached again.
+TEST(DropIn, ModelCacheEntryOfAMovedModelIsNotUsed) {
+  const SceneMesh mesh = scenes::flatFloor(8, 8, 0.5, 61);
+  auto model = fclModel<::fcl::OBBRSSd>(mesh);
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(model.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  fcl::Scratch scratch;
+  const auto sphere = std::make_shared<::fcl::Sphered>(0.3);
+  const auto contactsAt = [&](double z, const fcl::Options& options) {
+    Pose at;
+    at.translation = Vec3(2.1, 1.7, z);
+    ::fcl::CollisionObjectd m(model), s(sphere, toTransform(at));
+    ::fcl::CollisionResultd result;
+    const Status status = fcl::collide(&m, &s, contactsRequest(), result, options, scratch);
+    EXPECT_TRUE(status.isOk()) << status.message();
+    return contactsOf(result);
+  };
+  ASSERT_FALSE(contactsAt(0.2, cached).empty());
+  // Rebuilt 1 higher: the old floor is gone, the new one is touched at z 1.2.
+  std::vector<::fcl::Vector3d> raised(model->vertices, model->vertices + model->num_vertices);
+  for (auto& v : raised) v.z() += 1.0;
+  const std::vector<::fcl::Triangle> triangles(model->tri_indices, model->tri_indices + model->num_tris);
+  model->beginModel();  // on a finished model FCL only empties it (and says so on stderr)
+  model->beginModel();
+  model->addSubModel(raised, triangles);
+  model->endModel();
+  for (const double z : {0.2, 1.2}) {
+    const std::vector<::fcl::Contactd> in_place = contactsAt(z, fcl::Options());
+    EXPECT_EQ(in_place.empty(), z < 1.0);
+    EXPECT_EQ(compareContacts(contactsAt(z, cached), in_place, 0.0), "") << "rebuilt, z " << z;
+  }
+  // Updated 0.5 higher again: FCL swaps its vertex buffers.
+  model->beginUpdateModel();
+  for (const auto& v : raised) model->updateVertex(v + ::fcl::Vector3d(0, 0, 0.5));
+  model->endUpdateModel();
+  for (const double z : {1.0, 1.7}) {
+    const std::vector<::fcl::Contactd> in_place = contactsAt(z, fcl::Options());
+    EXPECT_EQ(in_place.empty(), z < 1.5);
+    EXPECT_EQ(compareContacts(contactsAt(z, cached), in_place, 0.0), "") << "updated, z " << z;
+  }
+  // Added again: the same contacts through the cache.
+  ASSERT_TRUE(cache.add(model.get()).isOk());
+  EXPECT_EQ(compareContacts(contactsAt(1.7, cached), contactsAt(1.7, fcl::Options()), 0.0), "");
+}
+
 // Options::settings.key_mode on a model walked in place: position keys by
 // default (duplicated vertices do not matter), vertex-index keys only when
 // asked, and then exactly the core's index-keyed pipeline (on a model whose

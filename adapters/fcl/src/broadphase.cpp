@@ -162,7 +162,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     const Pose to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
     const detail::QueryVolume volume =
         detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance);
-    const TriangleMesh* compact = options.cache ? options.cache->impl().find(group_geometries[j]) : nullptr;
+    const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh) : nullptr;
     if (compact) {
       // The core's midphase on the cached hierarchy, in the model frame,
       // then mapped like the in-place walk; its keys are the vertex indices,

@@ -398,7 +398,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   sc.candidates.clear();
   sc.contacts.clear();
   detail::QueryVolume volume = detail::makeQueryVolume(shape, shape_in_model, cd);
-  const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh.geometry) : nullptr;
+  const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh) : nullptr;
   const std::size_t room = request.num_max_contacts - have;
   // Collision checking: a boolean request wanting one contact stops at the
   // first triangle in contact. For a sphere, capsule or box, one candidate

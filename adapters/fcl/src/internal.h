@@ -281,11 +281,28 @@ struct ModelCache::Impl {
   struct Entry {
     std::vector<std::uint32_t> indices;
     TriangleMesh mesh;  // borrows the model's vertices and `indices`
+    // The model's arrays and counts when it was added.
+    const ::fcl::Vector3d* vertices = nullptr;
+    const ::fcl::Triangle* triangles = nullptr;
+    int vertex_count = 0;
+    int triangle_count = 0;
   };
   std::unordered_map<const ::fcl::CollisionGeometryd*, std::unique_ptr<Entry>> entries;
-  const TriangleMesh* find(const ::fcl::CollisionGeometryd* model) const {
-    const auto it = entries.find(model);
-    return it == entries.end() ? nullptr : &it->second->mesh;
+  /// The model's compact hierarchy, or null: not added, or changed since in a
+  /// way its arrays show. A model rebuilt (beginModel() ... endModel()) or
+  /// updated (FCL swaps its vertex buffers) has moved arrays, and the entry
+  /// would read freed or stale vertices: the model is then walked in place,
+  /// as without the cache. An edit in place (replaceVertex()) moves nothing
+  /// and is not seen: the caller add()s the model again (fcl.h).
+  /// Four compares per query: no allocation, no scan of the model.
+  const TriangleMesh* find(const detail::MeshDesc& model) const {
+    const auto it = entries.find(model.geometry);
+    if (it == entries.end()) return nullptr;
+    const Entry& e = *it->second;
+    if (detail::modelVertices(model) != e.vertices || detail::modelTriangles(model) != e.triangles ||
+        detail::modelVertexCount(model) != e.vertex_count || detail::modelTriangleCount(model) != e.triangle_count)
+      return nullptr;
+    return &e.mesh;
   }
 };
 

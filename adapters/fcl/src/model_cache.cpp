@@ -41,6 +41,10 @@ Status ModelCache::add(const ::fcl::CollisionGeometryd* model) {
                       entry->indices.data(), static_cast<std::size_t>(triangle_count)};
   s = entry->mesh.build(view, Storage::kBorrow);
   if (!s) return s;
+  entry->vertices = detail::modelVertices(mesh);
+  entry->triangles = triangles;
+  entry->vertex_count = vertex_count;
+  entry->triangle_count = triangle_count;
   impl_->entries.emplace(model, std::move(entry));
   return Status::ok();
 }

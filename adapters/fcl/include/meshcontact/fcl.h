@@ -170,7 +170,13 @@ class Scratch {
 /// The caller keeps the cache in step with its models: add() a model again
 /// after changing its vertices or triangles (updateModel(),
 /// beginReplaceModel(), ...), and remove() it before destroying it (the
-/// cache reads the model's vertex array). Adding and removing are not
+/// cache reads the model's vertex array). A guard, not a change detector:
+/// each query compares the model's array addresses and counts with those at
+/// add(), which a rebuild (beginModel() ... endModel()) or an update (FCL
+/// swaps between two vertex buffers) usually changes; the model is then
+/// walked in place, as without the cache, until it is added again. An edit
+/// in place (beginReplaceModel(), replaceVertex()), or a second update
+/// (which swaps the buffers back), is not seen. Adding and removing are not
 /// thread-safe; any number of threads may query through a cache that nobody
 /// modifies meanwhile.
 class ModelCache {
