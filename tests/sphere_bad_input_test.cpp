@@ -397,6 +397,25 @@ TEST(NormalizedOr, NaNOrInfinityAnywhereGivesTheFallback) {
   EXPECT_NEAR((normalizedOr(Vec3(1e-300, 0, 1e-300), Vec3::UnitZ()) - Vec3(1, 0, 1).normalized()).norm(), 0.0, 1e-15);
 }
 
+// Values in messages read at their own scale: std::to_string's %f printed
+// 1e300 as 301 digits and a rotation off by 2e-9 as "0.000000".
+TEST(Status, MessagesShowValuesAtTheirScale) {
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  QuerySettings far;
+  far.contact_distance = 1e300;
+  expectError(collideSphere(mesh, Sphere{Vec3::Zero(), 0.5}, far, scratch, contacts), ErrorCode::kInvalidSettings,
+              "got 1e+300");
+  expectError(collideSphere(mesh, Sphere{Vec3::Zero(), -2.5e-7}, QuerySettings(), scratch, contacts),
+              ErrorCode::kInvalidShape, "got -2.5e-07");
+  Pose skewed;
+  skewed.rotation(0, 1) = 4e-9;  // |R^T R - I| = 4e-9, beyond the 1e-9 accepted
+  expectError(collideCapsule(mesh, Capsule{0.1, 0.1}, skewed, QuerySettings(), scratch, contacts),
+              ErrorCode::kInvalidPose, "= 4e-09)");
+}
+
 TEST(Status, CodesHaveNames) {
   EXPECT_STREQ(toString(ErrorCode::kIndexOutOfRange), "IndexOutOfRange");
   EXPECT_STREQ(toString(Verdict::kVoided), "Voided");

@@ -52,10 +52,10 @@ namespace {
 Status checkCapsule(const Capsule& capsule, const Pose& pose) {
   if (!inRange(capsule.radius) || capsule.radius < 0.0)
     return {ErrorCode::kInvalidShape,
-            "capsule radius must be finite, >= 0 and <= 1e50, got " + std::to_string(capsule.radius)};
+            "capsule radius must be finite, >= 0 and <= 1e50, got " + detail::describe(capsule.radius)};
   if (!inRange(capsule.half_length) || capsule.half_length < 0.0)
     return {ErrorCode::kInvalidShape,
-            "capsule half_length must be finite, >= 0 and <= 1e50, got " + std::to_string(capsule.half_length)};
+            "capsule half_length must be finite, >= 0 and <= 1e50, got " + detail::describe(capsule.half_length)};
   return detail::checkPose(pose, "capsule pose");
 }
 

@@ -162,13 +162,13 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   for (const detail::HullPlane& f : planes) inradius = std::min(inradius, f.offset);
   if (!(inradius > tol))
     return {ErrorCode::kInvalidShape, "convex hull is too thin around its centroid (inradius " +
-                                          std::to_string(inradius) + ")"};
+                                          detail::describe(inradius) + ")"};
   double m = kDefaultMarginFraction * inradius;
   if (margin != kAutoMargin) {
     if (!std::isfinite(margin) || margin < 0.0 || margin > kMaxMarginFraction * inradius)
       return {ErrorCode::kInvalidShape, "convex hull margin must be kAutoMargin or in [0, " +
-                                            std::to_string(kMaxMarginFraction * inradius) +
-                                            "] (half the inradius), got " + std::to_string(margin)};
+                                            detail::describe(kMaxMarginFraction * inradius) +
+                                            "] (half the inradius), got " + detail::describe(margin)};
     m = margin;
   }
 
@@ -371,13 +371,13 @@ bool CylinderShape::nearestCorePoint(const Vec3& x, Vec3& out) const {
 Status CylinderShape::validate() const {
   const Cylinder& c = cylinder_;
   if (!detail::inRange(c.radius) || !(c.radius > 0.0))
-    return {ErrorCode::kInvalidShape, "cylinder radius must be finite and > 0, got " + std::to_string(c.radius)};
+    return {ErrorCode::kInvalidShape, "cylinder radius must be finite and > 0, got " + detail::describe(c.radius)};
   if (!detail::inRange(c.half_length) || !(c.half_length > 0.0))
     return {ErrorCode::kInvalidShape,
-            "cylinder half_length must be finite and > 0, got " + std::to_string(c.half_length)};
+            "cylinder half_length must be finite and > 0, got " + detail::describe(c.half_length)};
   if (!margin_in_range_)
     return {ErrorCode::kInvalidShape, "cylinder margin must be kAutoMargin or in [0, " +
-                                          std::to_string(kMaxMarginFraction * std::min(c.radius, c.half_length)) +
+                                          detail::describe(kMaxMarginFraction * std::min(c.radius, c.half_length)) +
                                           "] (half of min(radius, half_length))"};
   return Status::ok();
 }

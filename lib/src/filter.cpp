@@ -97,7 +97,7 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
   contacts.clear();
   if (settings.trace) settings.trace->clear();
   if (!std::isfinite(length_scale) || !(length_scale > 0.0))
-    return {ErrorCode::kInvalidSettings, "length_scale must be finite and > 0, got " + std::to_string(length_scale)};
+    return {ErrorCode::kInvalidSettings, "length_scale must be finite and > 0, got " + detail::describe(length_scale)};
   Status s = detail::checkManifoldSettings(settings);
   if (!s) return s;
   if (s = checkArray(candidates, count, "candidates"); !s) return s;

@@ -3,6 +3,7 @@
 // hold it as well as all of them; the deepest point is always kept so the
 // solver sees the true penetration.
 #include "manifold_reduction.h"
+#include "validate.h"
 
 #include <algorithm>
 #include <cmath>
@@ -84,7 +85,7 @@ Status checkManifoldSettings(const QuerySettings& settings) {
   const double a = settings.manifold_angle_deg;
   if (!std::isfinite(a) || a < 0.0 || a >= 90.0)
     return {ErrorCode::kInvalidSettings,
-            "manifold_angle_deg must be finite and in [0, 90), got " + std::to_string(a)};
+            "manifold_angle_deg must be finite and in [0, 90), got " + describe(a)};
   return Status::ok();
 }
 

@@ -2,6 +2,7 @@
 
 #include "scaled_edges.h"
 #include "stamped_set.h"
+#include "validate.h"
 
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/math/bv/AABB.h>
@@ -112,8 +113,7 @@ Status TriangleMesh::build(const MeshView& view, Storage storage) {
     const double* p = view.vertices + 3 * i;
     if (!inRange(p[0]) || !inRange(p[1]) || !inRange(p[2]))
       return {ErrorCode::kNonFiniteVertex, "vertex " + std::to_string(i) + " has a non-finite coordinate or one "
-                                               "beyond +-1e50 (" + std::to_string(p[0]) + ", " + std::to_string(p[1]) +
-                                               ", " + std::to_string(p[2]) + ")"};
+                                               "beyond +-1e50 " + detail::describe(Vec3(p[0], p[1], p[2]))};
   }
   for (std::size_t t = 0; t < view.triangle_count; ++t) {
     for (int k = 0; k < 3; ++k) {

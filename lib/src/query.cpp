@@ -188,7 +188,7 @@ Status checkSphere(const Sphere& sphere) {
             "sphere centre is not finite or beyond +-1e50: " + detail::describe(sphere.center)};
   if (!inRange(sphere.radius) || sphere.radius < 0.0)
     return {ErrorCode::kInvalidShape,
-            "sphere radius must be finite, >= 0 and <= 1e50, got " + std::to_string(sphere.radius)};
+            "sphere radius must be finite, >= 0 and <= 1e50, got " + detail::describe(sphere.radius)};
   return Status::ok();
 }
 

@@ -2,6 +2,7 @@
 
 #include "meshcontact/query.h"
 
+#include <charconv>
 #include <cmath>
 #include <sstream>
 
@@ -18,6 +19,11 @@ std::string describe(const Vec3& v) {
   return s.str();
 }
 
+std::string describe(double x) {
+  char text[32];
+  return std::string(text, std::to_chars(text, text + sizeof text, x).ptr);
+}
+
 Status checkPose(const Pose& pose, const char* what) {
   if (!pose.rotation.allFinite() || !inRange(pose.translation))
     return {ErrorCode::kInvalidPose,
@@ -26,7 +32,7 @@ Status checkPose(const Pose& pose, const char* what) {
   const double err = (pose.rotation.transpose() * pose.rotation - Mat3::Identity()).cwiseAbs().maxCoeff();
   if (!(err <= 1e-9) || !(pose.rotation.determinant() > 0.0))
     return {ErrorCode::kInvalidPose, std::string(what) + ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
-                                         std::to_string(err) + ")"};
+                                         describe(err) + ")"};
   return Status::ok();
 }
 
@@ -78,7 +84,7 @@ Status checkCandidates(const CandidateTriangle* candidates, std::size_t count) {
 Status checkContactDistance(double contact_distance) {
   if (!inRange(contact_distance) || contact_distance < 0.0)
     return {ErrorCode::kInvalidSettings,
-            "contact_distance must be finite, >= 0 and <= 1e50, got " + std::to_string(contact_distance)};
+            "contact_distance must be finite, >= 0 and <= 1e50, got " + describe(contact_distance)};
   return Status::ok();
 }
 

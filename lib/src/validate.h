@@ -31,5 +31,8 @@ Status checkCandidates(const CandidateTriangle* candidates, std::size_t count);
 /// then `problem` and the corner's coordinates.
 Status candidateCornerError(const CandidateTriangle& c, std::size_t i, int k, const char* problem);
 std::string describe(const Vec3& v);
+/// A value for a message, the shortest text that reads back as it: neither
+/// "0.000000" for 1e-8 nor 300 digits for 1e300 (std::to_string's %f).
+std::string describe(double x);
 
 }  // namespace meshcontact::detail

@@ -208,7 +208,7 @@ Status BroadphaseCollector::finish() {
     return {ErrorCode::kInvalidSettings, "request.num_max_contacts is 0 (no contact could be returned)"};
   const double cd = impl.options.settings.contact_distance;
   if (!std::isfinite(cd) || cd < 0.0)
-    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + std::to_string(cd)};
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + detail::describeValue(cd)};
   // Group the mesh-vs-shape pairs by shape, each group in arrival order.
   std::vector<Impl::Pair>& pairs = impl.pairs;
   std::stable_sort(pairs.begin(), pairs.end(), [](const Impl::Pair& x, const Impl::Pair& y) {

@@ -41,7 +41,7 @@ Status poseFromTransform(const ::fcl::Transform3d& tf, const char* what, Pose& o
   if (!(err <= 1e-6) || !(out.rotation.determinant() > 0.0))
     return {ErrorCode::kInvalidPose, std::string(what) +
                                          ": rotation is not a proper orthonormal matrix (|R^T R - I| = " +
-                                         std::to_string(err) + ")"};
+                                         describeValue(err) + ")"};
   // Every pose taken from FCL is a rotation: the shape's pose in the model
   // frame (the core's input) and the mesh's pose, which maps the contacts
   // back to the world. Rotated by the matrix as given, off by up to 1e-6, a
@@ -376,7 +376,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     return {ErrorCode::kInvalidSettings, "request.num_max_contacts is 0 (no contact could be returned)"};
   const double cd = options.settings.contact_distance;
   if (!std::isfinite(cd) || cd < 0.0)
-    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + std::to_string(cd)};
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + detail::describeValue(cd)};
 
   MeshDesc mesh;
   ShapeDesc shape;

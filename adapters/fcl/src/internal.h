@@ -26,14 +26,24 @@
 #include <fcl/math/bv/RSS.h>
 #include <fcl/math/bv/kIOS.h>
 
+#include <charconv>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
 
 namespace meshcontact::fcl::detail {
+
+/// A value for an error message, the shortest text that reads back as it:
+/// neither "0.000000" for 1e-8 nor 300 digits for 1e300 (std::to_string's %f).
+inline std::string describeValue(double x) {
+  char text[32];
+  return std::string(text, std::to_chars(text, text + sizeof text, x).ptr);
+}
+
 
 // ---------------------------------------------------------------------------
 // Shapes.

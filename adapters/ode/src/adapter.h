@@ -11,6 +11,7 @@
 #include <meshcontact/shapes.h>
 
 #include <atomic>
+#include <charconv>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -20,6 +21,14 @@
 #include <vector>
 
 namespace meshcontact::ode::detail {
+
+/// A value for an error message, the shortest text that reads back as it:
+/// neither "0.000000" for 1e-8 nor 300 digits for 1e300 (std::to_string's %f).
+inline std::string describeValue(double x) {
+  char text[32];
+  return std::string(text, std::to_chars(text, text + sizeof text, x).ptr);
+}
+
 
 /// The BVH of one dTriMeshDataID. Immutable once built (shared between
 /// threads through shared_ptr; an invalidation swaps in a new one).

@@ -227,10 +227,10 @@ Status checkArrays(const void* vertices, int vertex_stride, int vertex_count, co
 Status checkSettings(const Settings& s) {
   const double d = s.query.contact_distance;
   if (!std::isfinite(d) || d < 0.0)
-    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + std::to_string(d)};
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + describeValue(d)};
   const double a = s.query.manifold_angle_deg;
   if (!(a >= 0.0 && a < 90.0))
-    return {ErrorCode::kInvalidSettings, "manifold_angle_deg must be in [0, 90), got " + std::to_string(a)};
+    return {ErrorCode::kInvalidSettings, "manifold_angle_deg must be in [0, 90), got " + describeValue(a)};
   if ((s.shapes & ~static_cast<unsigned>(kAllShapes)) != 0)
     return {ErrorCode::kInvalidSettings, "unknown bits in Settings::shapes: " + std::to_string(s.shapes)};
   return Status::ok();
