@@ -397,6 +397,37 @@ TEST(NormalizedOr, NaNOrInfinityAnywhereGivesTheFallback) {
   EXPECT_NEAR((normalizedOr(Vec3(1e-300, 0, 1e-300), Vec3::UnitZ()) - Vec3(1, 0, 1).normalized()).norm(), 0.0, 1e-15);
 }
 
+// A key or filter mode that is none of its enum's values (a cast integer)
+// is an error: it ran as index keys, or as the naive method with its ghosts.
+TEST(Settings, ModesOutsideTheirEnumsAreErrors) {
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  const Sphere sphere{Vec3(0.2, 0.2, 0.1), 0.2};
+  QuerySettings bad_key;
+  bad_key.key_mode = static_cast<KeyMode>(7);
+  expectError(collideSphere(mesh, sphere, bad_key, scratch, contacts), ErrorCode::kInvalidSettings, "key mode 7");
+  std::vector<CandidateTriangle> candidates;
+  const MeshInstance instance{&mesh, Pose::identity()};
+  expectError(gatherCandidates(&instance, 1, Vec3::Zero(), Vec3::Ones(), static_cast<KeyMode>(255), scratch,
+                               candidates),
+              ErrorCode::kInvalidSettings, "key mode 255");
+  QuerySettings bad_filter;
+  bad_filter.filter = static_cast<FilterMode>(7);
+  expectError(collideSphere(mesh, sphere, bad_filter, scratch, contacts), ErrorCode::kInvalidSettings,
+              "filter mode 7");
+  expectError(collideBox(mesh, Box{Vec3(0.1, 0.1, 0.1)}, Pose(), bad_filter, scratch, contacts),
+              ErrorCode::kInvalidSettings, "filter mode 7");
+  ASSERT_TRUE(gatherCandidates(&instance, 1, Vec3::Zero(), Vec3::Ones(), KeyMode::kAuto, scratch, candidates).isOk());
+  expectError(collideSphereCandidates(sphere, candidates.data(), candidates.size(), bad_filter, scratch, contacts),
+              ErrorCode::kInvalidSettings, "filter mode 7");
+  TrianglePatch patch;
+  patch.count = 1;
+  expectError(filterPatches(candidates.data(), &patch, 1, 1.0, bad_filter, scratch, contacts),
+              ErrorCode::kInvalidSettings, "filter mode 7");
+}
+
 // Values in messages read at their own scale: std::to_string's %f printed
 // 1e300 as 301 digits and a rotation off by 2e-9 as "0.000000".
 TEST(Status, MessagesShowValuesAtTheirScale) {

@@ -831,7 +831,7 @@ struct BoxNarrowphase {
 Status checkQuery(const Box& box, const Pose& pose, const QuerySettings& settings) {
   Status s = checkBox(box, pose);
   if (!s) return s;
-  s = detail::checkContactDistance(settings.contact_distance);
+  s = detail::checkQuerySettings(settings);
   if (!s) return s;
   return detail::checkManifoldSettings(settings);
 }

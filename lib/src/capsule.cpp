@@ -196,7 +196,7 @@ CapsuleNarrowphase makeNarrowphase(const Capsule& capsule, const Pose& pose, dou
 Status checkQuery(const Capsule& capsule, const Pose& pose, const QuerySettings& settings) {
   Status s = checkCapsule(capsule, pose);
   if (!s) return s;
-  s = detail::checkContactDistance(settings.contact_distance);
+  s = detail::checkQuerySettings(settings);
   if (!s) return s;
   return detail::checkManifoldSettings(settings);
 }

@@ -100,6 +100,7 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
     return {ErrorCode::kInvalidSettings, "length_scale must be finite and > 0, got " + detail::describe(length_scale)};
   Status s = detail::checkManifoldSettings(settings);
   if (!s) return s;
+  if (s = detail::checkFilterMode(settings.filter); !s) return s;
   if (s = checkArray(candidates, count, "candidates"); !s) return s;
   if (s = checkArray(patches, count, "patches"); !s) return s;
   for (std::size_t i = 0; i < count; ++i) {

@@ -48,6 +48,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
   out.clear();
   if (instances == nullptr && count > 0)
     return {ErrorCode::kMeshNotBuilt, "instances is null with count " + std::to_string(count)};
+  if (Status s = detail::checkKeyMode(key_mode); !s) return s;
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};
@@ -385,7 +386,7 @@ Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* ca
   if (settings.trace) settings.trace->clear();
   Status s = checkSphere(sphere);
   if (!s) return s;
-  s = detail::checkContactDistance(settings.contact_distance);
+  s = detail::checkQuerySettings(settings);
   if (!s) return s;
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
@@ -399,7 +400,7 @@ Status collideSphere(const MeshInstance* instances, std::size_t count, const Sph
   if (settings.trace) settings.trace->clear();
   Status s = checkSphere(sphere);
   if (!s) return s;
-  s = detail::checkContactDistance(settings.contact_distance);
+  s = detail::checkQuerySettings(settings);
   if (!s) return s;
   const double reach = sphere.radius + settings.contact_distance;
   const Vec3 extent = Vec3::Constant(reach);

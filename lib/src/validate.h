@@ -1,6 +1,7 @@
 #pragma once
 // Input checks shared by the queries. Each returns ok or a Status that names
 // the offending value.
+#include "meshcontact/contact.h"
 #include "meshcontact/geometry.h"
 #include "meshcontact/status.h"
 
@@ -20,6 +21,14 @@ inline bool inRange(const Vec3& v) { return meshcontact::inRange(v.x()) && meshc
 
 Status checkPose(const Pose& pose, const char* what);
 Status checkContactDistance(double contact_distance);
+/// kInvalidSettings for a value that is none of the enum's (a cast integer):
+/// an unknown filter mode ran as FilterMode::kNone, an unknown key mode as
+/// KeyMode::kVertexIndex.
+Status checkFilterMode(FilterMode mode);
+Status checkKeyMode(KeyMode mode);
+/// What every query reads of its settings: checkContactDistance and
+/// checkFilterMode (the key mode is the midphase's, gather() checks it).
+Status checkQuerySettings(const QuerySettings& settings);
 /// Every corner of the candidates finite and within +-kMaxCoordinate, as a
 /// built mesh's vertices are (TriangleMesh::build): the narrowphases' bounds
 /// on overflow and round-off assume it, and a NaN corner would otherwise

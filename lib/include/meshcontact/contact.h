@@ -76,6 +76,7 @@ struct QuerySettings {
   /// still produce contacts (with negative depth). Reference §4a: the
   /// inflated radius is radius + contact_distance.
   double contact_distance = 0.0;
+  /// A value none of the enum's (a cast integer) is kInvalidSettings.
   KeyMode key_mode = KeyMode::kAuto;
   FilterMode filter = FilterMode::kVoidedFeatures;
   /// When non-null, cleared and filled with one entry per candidate triangle

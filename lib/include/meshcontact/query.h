@@ -63,7 +63,8 @@ KeyMode resolveKeyMode(const MeshInstance* instances, std::size_t count, KeyMode
 /// Stage 1, the midphase. Replaces `out` with every non-degenerate triangle of
 /// every instance whose bounds overlap the query-frame box [lo, hi]. Order:
 /// instance by instance, the hierarchy's (breadth first) within one.
-/// Errors: kMeshNotBuilt (`instances` null with count > 0), kInvalidShape
+/// Errors: kMeshNotBuilt (`instances` null with count > 0), kInvalidSettings
+/// (a key mode none of KeyMode's), kInvalidShape
 /// (box not finite or lo > hi), then kMeshNotBuilt or kInvalidPose for the
 /// first instance that has one; `out` is then empty. The whole pipelines
 /// (collideSphere(instances, ...) and the other shapes') report the same.
@@ -92,8 +93,8 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
 /// filter, and the trace says why). The result does not depend on the order
 /// of `candidates`: contacts come out sorted by (mesh, triangle).
 /// Errors: kInvalidShape (non-finite centre, negative or non-finite radius),
-/// kInvalidSettings (negative or non-finite contact distance),
-/// kNonFiniteVertex (a candidate's corner is not finite or beyond +-1e50,
+/// kInvalidSettings (negative or non-finite contact distance, a filter mode
+/// none of FilterMode's), kNonFiniteVertex (a candidate's corner is not finite or beyond +-1e50,
 /// the range of a built mesh's vertices; names the candidate and corner).
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
                                const QuerySettings& settings, QueryScratch& scratch,

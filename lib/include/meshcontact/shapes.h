@@ -45,7 +45,7 @@ struct Cylinder {
 // Errors: kInvalidShape (non-finite or negative radius / half_length /
 // half_extents, or a box whose half extents are all 0), kInvalidPose
 // (non-finite or non-orthonormal pose), kInvalidSettings (contact distance,
-// manifold angle), plus the midphase's errors (gatherCandidates); the
+// manifold angle, a filter mode none of FilterMode's), plus the midphase's errors (gatherCandidates); the
 // *Candidates functions: kNonFiniteVertex for a candidate corner that is not
 // finite or beyond +-1e50 (as collideSphereCandidates).
 
