@@ -1115,7 +1115,8 @@ Status checkCommon(const SupportShape& shape, const Pose& pose, const QuerySetti
   if (!s) return s;
   const double m = shape.margin();
   if (!detail::inRange(m) || m < 0.0)
-    return {ErrorCode::kInvalidShape, "the shape's margin must be finite, >= 0 and <= 1e50, got " + detail::describe(m)};
+    return {ErrorCode::kInvalidShape,
+            "the shape's margin must be finite, >= 0 and <= 1e50, got " + detail::describe(m)};
   s = detail::checkPose(pose, "shape");
   if (!s) return s;
   s = detail::checkQuerySettings(settings);

@@ -44,7 +44,6 @@ inline std::string describeValue(double x) {
   return std::string(text, std::to_chars(text, text + sizeof text, x).ptr);
 }
 
-
 // ---------------------------------------------------------------------------
 // Shapes.
 

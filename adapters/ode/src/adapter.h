@@ -29,7 +29,6 @@ inline std::string describeValue(double x) {
   return std::string(text, std::to_chars(text, text + sizeof text, x).ptr);
 }
 
-
 /// The BVH of one dTriMeshDataID. Immutable once built (shared between
 /// threads through shared_ptr; an invalidation swaps in a new one).
 struct MeshEntry {

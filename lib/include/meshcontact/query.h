@@ -94,8 +94,9 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
 /// of `candidates`: contacts come out sorted by (mesh, triangle).
 /// Errors: kInvalidShape (non-finite centre, negative or non-finite radius),
 /// kInvalidSettings (negative or non-finite contact distance, a filter mode
-/// none of FilterMode's), kNonFiniteVertex (a candidate's corner is not finite or beyond +-1e50,
-/// the range of a built mesh's vertices; names the candidate and corner).
+/// none of FilterMode's), kNonFiniteVertex (a candidate's corner is not
+/// finite or beyond +-1e50, the range of a built mesh's vertices; names the
+/// candidate and corner).
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
                                const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts);

@@ -45,9 +45,10 @@ struct Cylinder {
 // Errors: kInvalidShape (non-finite or negative radius / half_length /
 // half_extents, or a box whose half extents are all 0), kInvalidPose
 // (non-finite or non-orthonormal pose), kInvalidSettings (contact distance,
-// manifold angle, a filter mode none of FilterMode's), plus the midphase's errors (gatherCandidates); the
-// *Candidates functions: kNonFiniteVertex for a candidate corner that is not
-// finite or beyond +-1e50 (as collideSphereCandidates).
+// manifold angle, a filter mode none of FilterMode's), plus the midphase's
+// errors (gatherCandidates); the *Candidates functions: kNonFiniteVertex for
+// a candidate corner that is not finite or beyond +-1e50 (as
+// collideSphereCandidates).
 
 /// Capsule vs each candidate: exact closest features between the capsule's
 /// segment and the triangle (Ericson 5.1.9). One-sided: a triangle is culled
