@@ -164,11 +164,14 @@ TEST(DropIn, ModelCacheGivesTheSameContacts) {
   EXPECT_EQ(cache.size(), 0u);
 }
 
-// A cached model changed so that its arrays moved (rebuilt with
-// beginModel() ... endModel(): FCL frees the old ones; updated: FCL swaps its
-// vertex buffers) is walked in place, not through the stale entry, which
-// read freed vertices (a phantom contact on the old surface) or missed the
-// new surface (no contact). Added again, it is cached again.
+// A cached model whose arrays moved is walked in place, not through the
+// stale entry. Here an update, for which FCL swaps its vertex buffers: the
+// entry missed the new surface (no contact there) and kept the old one. A
+// rebuild (beginModel() ... endModel() on a finished model: new arrays, the
+// old ones freed) is caught by the same address check, but FCL 0.7 has no
+// way to rebuild a finished model without leaking (its first beginModel()
+// allocates, then resets the state; the second allocates again), which
+// LeakSanitizer fails. Added again, the model is cached again.
 TEST(DropIn, ModelCacheEntryOfAMovedModelIsNotUsed) {
   const SceneMesh mesh = scenes::flatFloor(8, 8, 0.5, 61);
   auto model = fclModel<::fcl::OBBRSSd>(mesh);
@@ -188,31 +191,21 @@ TEST(DropIn, ModelCacheEntryOfAMovedModelIsNotUsed) {
     return contactsOf(result);
   };
   ASSERT_FALSE(contactsAt(0.2, cached).empty());
-  // Rebuilt 1 higher: the old floor is gone, the new one is touched at z 1.2.
+  // Updated 1 higher: the old floor is gone, the new one is touched at z 1.2.
+  const ::fcl::Vector3d* before = model->vertices;
   std::vector<::fcl::Vector3d> raised(model->vertices, model->vertices + model->num_vertices);
-  for (auto& v : raised) v.z() += 1.0;
-  const std::vector<::fcl::Triangle> triangles(model->tri_indices, model->tri_indices + model->num_tris);
-  model->beginModel();  // on a finished model FCL only empties it (and says so on stderr)
-  model->beginModel();
-  model->addSubModel(raised, triangles);
-  model->endModel();
+  model->beginUpdateModel();
+  for (const auto& v : raised) model->updateVertex(v + ::fcl::Vector3d(0, 0, 1.0));
+  model->endUpdateModel();
+  ASSERT_NE(model->vertices, before);  // FCL swapped its buffers
   for (const double z : {0.2, 1.2}) {
     const std::vector<::fcl::Contactd> in_place = contactsAt(z, fcl::Options());
     EXPECT_EQ(in_place.empty(), z < 1.0);
-    EXPECT_EQ(compareContacts(contactsAt(z, cached), in_place, 0.0), "") << "rebuilt, z " << z;
-  }
-  // Updated 0.5 higher again: FCL swaps its vertex buffers.
-  model->beginUpdateModel();
-  for (const auto& v : raised) model->updateVertex(v + ::fcl::Vector3d(0, 0, 0.5));
-  model->endUpdateModel();
-  for (const double z : {1.0, 1.7}) {
-    const std::vector<::fcl::Contactd> in_place = contactsAt(z, fcl::Options());
-    EXPECT_EQ(in_place.empty(), z < 1.5);
     EXPECT_EQ(compareContacts(contactsAt(z, cached), in_place, 0.0), "") << "updated, z " << z;
   }
   // Added again: the same contacts through the cache.
   ASSERT_TRUE(cache.add(model.get()).isOk());
-  EXPECT_EQ(compareContacts(contactsAt(1.7, cached), contactsAt(1.7, fcl::Options()), 0.0), "");
+  EXPECT_EQ(compareContacts(contactsAt(1.2, cached), contactsAt(1.2, fcl::Options()), 0.0), "");
 }
 
 // Options::settings.key_mode on a model walked in place: position keys by
