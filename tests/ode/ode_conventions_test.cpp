@@ -656,7 +656,7 @@ TEST(OdeConventions, BuildWrappersRefuseArraysOdeCannotBuild) {
   EXPECT_EQ(dCollide(trimesh, sphere, 4, c, sizeof(dContactGeom)), 1) << ode::lastError();
   dGeomDestroy(sphere);
   dGeomDestroy(trimesh);
-  dGeomTriMeshDataDestroy(data);
+  ode::destroyTriMeshData(data);  // forgets the registration too (ode.h)
 }
 
 // Two threads collide their own sphere geoms with their own trimesh geoms over
