@@ -48,7 +48,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
   out.clear();
   if (instances == nullptr && count > 0)
     return {ErrorCode::kMeshNotBuilt, "instances is null with count " + std::to_string(count)};
-  if (Status s = detail::checkKeyMode(key_mode); !s) return s;
+  if (!detail::isKeyMode(key_mode)) return detail::keyModeError(key_mode);
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};

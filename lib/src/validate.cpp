@@ -81,24 +81,14 @@ Status checkCandidates(const CandidateTriangle* candidates, std::size_t count) {
   return Status::ok();
 }
 
-Status checkFilterMode(FilterMode mode) {
-  if (mode != FilterMode::kVoidedFeatures && mode != FilterMode::kNone)
-    return {ErrorCode::kInvalidSettings, "filter mode " + std::to_string(static_cast<int>(mode)) +
-                                             " is neither kVoidedFeatures nor kNone"};
-  return Status::ok();
+Status filterModeError(FilterMode mode) {
+  return {ErrorCode::kInvalidSettings,
+          "filter mode " + std::to_string(static_cast<int>(mode)) + " is neither kVoidedFeatures nor kNone"};
 }
 
-Status checkKeyMode(KeyMode mode) {
-  if (mode != KeyMode::kAuto && mode != KeyMode::kVertexIndex && mode != KeyMode::kVertexPosition)
-    return {ErrorCode::kInvalidSettings, "key mode " + std::to_string(static_cast<int>(mode)) +
-                                             " is none of kAuto, kVertexIndex, kVertexPosition"};
-  return Status::ok();
-}
-
-Status checkQuerySettings(const QuerySettings& settings) {
-  const Status s = checkContactDistance(settings.contact_distance);
-  if (!s) return s;
-  return checkFilterMode(settings.filter);
+Status keyModeError(KeyMode mode) {
+  return {ErrorCode::kInvalidSettings, "key mode " + std::to_string(static_cast<int>(mode)) +
+                                           " is none of kAuto, kVertexIndex, kVertexPosition"};
 }
 
 Status checkContactDistance(double contact_distance) {

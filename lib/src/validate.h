@@ -24,11 +24,23 @@ Status checkContactDistance(double contact_distance);
 /// kInvalidSettings for a value that is none of the enum's (a cast integer):
 /// an unknown filter mode ran as FilterMode::kNone, an unknown key mode as
 /// KeyMode::kVertexIndex.
-Status checkFilterMode(FilterMode mode);
-Status checkKeyMode(KeyMode mode);
+/// Inline, with the message built out of line: they run on every query.
+Status filterModeError(FilterMode mode);
+Status keyModeError(KeyMode mode);
+inline Status checkFilterMode(FilterMode mode) {
+  if (mode != FilterMode::kVoidedFeatures && mode != FilterMode::kNone) return filterModeError(mode);
+  return Status::ok();
+}
+inline bool isKeyMode(KeyMode mode) {
+  return mode == KeyMode::kAuto || mode == KeyMode::kVertexIndex || mode == KeyMode::kVertexPosition;
+}
 /// What every query reads of its settings: checkContactDistance and
 /// checkFilterMode (the key mode is the midphase's, gather() checks it).
-Status checkQuerySettings(const QuerySettings& settings);
+inline Status checkQuerySettings(const QuerySettings& settings) {
+  Status s = checkContactDistance(settings.contact_distance);
+  if (!s) return s;
+  return checkFilterMode(settings.filter);
+}
 /// Every corner of the candidates finite and within +-kMaxCoordinate, as a
 /// built mesh's vertices are (TriangleMesh::build): the narrowphases' bounds
 /// on overflow and round-off assume it, and a NaN corner would otherwise
