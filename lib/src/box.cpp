@@ -852,7 +852,8 @@ Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTri
   if (!s) return s;
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
-  detail::manifoldContacts(makeNarrowphase(box, pose, settings), candidates, count, settings, scratch, contacts);
+  detail::manifoldContacts(makeNarrowphase(box, pose, settings), candidates, count, settings,
+                           detail::candidateIdentity(settings), scratch, contacts);
   return Status::ok();
 }
 
@@ -867,15 +868,17 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   // The rotated box's bounds, inflated by the contact distance.
   const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
   const Vec3 lo = pose.translation - half, hi = pose.translation + half;
+  detail::VertexIdentity identity;
   if (settings.trace)  // the trace lists every triangle of the bounds, with its verdict
-    s = gatherCandidates(instances, count, lo, hi, settings.key_mode, scratch, sc.candidates);
+    s = detail::gatherForFilter(instances, count, lo, hi, settings.key_mode, scratch, sc.candidates, identity);
   else  // without those whose bounds the box's faces hold beyond the narrowphase's reach (its first test)
-    s = detail::gatherCandidatesNearBox(instances, count, lo, hi, pose,
-                                        box.half_extents + Vec3::Constant(narrowphase.reach()), settings.key_mode,
-                                        scratch, sc.candidates);
+    s = detail::gatherNearBoxForFilter(instances, count, lo, hi, pose,
+                                       box.half_extents + Vec3::Constant(narrowphase.reach()), settings.key_mode,
+                                       scratch, sc.candidates, identity);
   if (!s) return s;
   // Checked once above, not again per stage.
-  detail::manifoldContacts(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  detail::manifoldContacts(narrowphase, sc.candidates.data(), sc.candidates.size(), settings, identity, scratch,
+                           contacts);
   return Status::ok();
 }
 

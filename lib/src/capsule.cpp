@@ -34,6 +34,7 @@
 #include "meshcontact/triangle.h"
 
 #include "capsule_segment.h"
+#include "gather.h"
 #include "manifold_reduction.h"
 #include "scaled_edges.h"
 #include "scratch.h"
@@ -213,7 +214,7 @@ Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const 
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
   detail::manifoldContacts(makeNarrowphase(capsule, pose, settings.contact_distance), candidates, count, settings,
-                           scratch, contacts);
+                           detail::candidateIdentity(settings), scratch, contacts);
   return Status::ok();
 }
 
@@ -226,11 +227,12 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
   const CapsuleNarrowphase np = makeNarrowphase(capsule, pose, settings.contact_distance);
   const Vec3 reach = Vec3::Constant(np.reach);
   QueryScratch::Impl& sc = scratch.impl();
-  s = gatherCandidates(instances, count, np.p0.cwiseMin(np.p1) - reach, np.p0.cwiseMax(np.p1) + reach,
-                       settings.key_mode, scratch, sc.candidates);
+  detail::VertexIdentity identity;
+  s = detail::gatherForFilter(instances, count, np.p0.cwiseMin(np.p1) - reach, np.p0.cwiseMax(np.p1) + reach,
+                              settings.key_mode, scratch, sc.candidates, identity);
   if (!s) return s;
   // Checked once above, not again per stage.
-  detail::manifoldContacts(np, sc.candidates.data(), sc.candidates.size(), settings, scratch, contacts);
+  detail::manifoldContacts(np, sc.candidates.data(), sc.candidates.size(), settings, identity, scratch, contacts);
   return Status::ok();
 }
 

@@ -58,6 +58,7 @@
 #include "meshcontact/convex.h"
 
 #include "convex_passes.h"
+#include "gather.h"
 #include "convex_patch.h"
 #include "gjk_distance.h"
 #include "hull3d.h"
@@ -1161,7 +1162,8 @@ double coreRadius(const Vec3& lo, const Vec3& hi, const Vec3& center) {
 
 Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
                      const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
-                     QueryScratch& scratch, std::vector<Contact>& contacts, bool shortcuts) {
+                     detail::VertexIdentity identity, QueryScratch& scratch, std::vector<Contact>& contacts,
+                     bool shortcuts) {
   Counters counters;
   const double size = (hi - lo).norm();
   const double radius = coreRadius(lo, hi, center);
@@ -1179,7 +1181,7 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     if (counters.certainlyVoid(scale)) continue;
     narrowphase.scale = scale;
     counters.core_intersects = false;
-    detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+    detail::generateContacts(candidates, count, narrowphase, settings, identity, sc.filter, contacts);
     if (counters.support_not_finite || !counters.core_intersects) break;
     // The candidates the first pass skipped: those after the one that voided
     // it (generateContacts hands the narrowphase the caller's candidates in
@@ -1303,7 +1305,8 @@ Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& po
   if (!s) return s;
   s = checkCandidates(candidates, count);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, scratch, contacts, shortcuts);
+  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, detail::candidateIdentity(settings),
+                       scratch, contacts, shortcuts);
 }
 
 Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,
@@ -1317,10 +1320,12 @@ Status collideConvex(const MeshInstance* instances, std::size_t count, const Sup
   if (!s) return s;
   const Vec3 reach = Vec3::Constant(settings.contact_distance);
   QueryScratch::Impl& sc = scratch.impl();
-  s = gatherCandidates(instances, count, lo - reach, hi + reach, settings.key_mode, scratch, sc.candidates);
+  detail::VertexIdentity identity;
+  s = detail::gatherForFilter(instances, count, lo - reach, hi + reach, settings.key_mode, scratch, sc.candidates,
+                              identity);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, sc.candidates.data(), sc.candidates.size(), settings, scratch,
-                       contacts, true);
+  return runCandidates(shape, pose, lo, hi, center, sc.candidates.data(), sc.candidates.size(), settings, identity,
+                       scratch, contacts, true);
 }
 
 Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,

@@ -121,7 +121,8 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
     return detail::PatchOutcome::kContact;
   };
   QueryScratch::Impl& sc = scratch.impl();
-  detail::generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  // The keys as the caller set them (assignPositionKeys...).
+  detail::generateContacts(candidates, count, narrowphase, settings, detail::VertexIdentity::kKeys, sc.filter, contacts);
   detail::reduceManifolds(contacts, settings, length_scale, sc.manifold);
   return Status::ok();
 }

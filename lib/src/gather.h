@@ -3,6 +3,7 @@
 // offer (query.cpp).
 
 #include "meshcontact/query.h"
+#include "voided_features.h"
 
 #include <vector>
 
@@ -21,5 +22,26 @@ namespace meshcontact::detail {
 Status gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                                const Pose& box_pose, const Vec3& half_extents, KeyMode key_mode,
                                QueryScratch& scratch, std::vector<CandidateTriangle>& out);
+
+/// The shapes' pipelines' midphase: gatherCandidates (and
+/// gatherCandidatesNearBox), except that position keys are left to the
+/// filter. The keys are index keys (instance << 32 | vertex index) whatever
+/// the key mode, and `identity` is the filter's VertexIdentity:
+/// kKeysOrPositions where the resolved mode is KeyMode::kVertexPosition.
+/// The filter then decides as on position keys, without hashing every
+/// corner's position (voided_features.h).
+Status gatherForFilter(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                       KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out,
+                       VertexIdentity& identity);
+Status gatherNearBoxForFilter(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                              const Pose& box_pose, const Vec3& half_extents, KeyMode key_mode, QueryScratch& scratch,
+                              std::vector<CandidateTriangle>& out, VertexIdentity& identity);
+
+/// The filter's vertex identity for candidates whose keys the caller set
+/// (collide*Candidates): the keys, and positions too when the settings ask
+/// for KeyMode::kVertexPosition (query.h).
+inline VertexIdentity candidateIdentity(const QuerySettings& settings) {
+  return settings.key_mode == KeyMode::kVertexPosition ? VertexIdentity::kKeysOrPositions : VertexIdentity::kKeys;
+}
 
 }  // namespace meshcontact::detail

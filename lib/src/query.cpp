@@ -41,18 +41,26 @@ struct OrientedBox {
 // (`bound`, query frame; the box [lo, hi] must contain it): leaves whose box
 // is farther than its radius are dropped (TriangleMesh::querySphere); or by
 // an oriented box (`box_bound`, likewise): leaves whose box its faces
-// separate are dropped (TriangleMesh::queryOrientedBox).
+// separate are dropped (TriangleMesh::queryOrientedBox). With `identity`
+// non-null (the pipelines' own midphase), position keys are left to the
+// filter: the keys are index keys whatever the mode, and *identity says
+// whether the filter must match positions too (detail::VertexIdentity).
 Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi, const Sphere* bound,
               const OrientedBox* box_bound, KeyMode key_mode, QueryScratch& scratch,
-              std::vector<CandidateTriangle>& out) {
+              std::vector<CandidateTriangle>& out, detail::VertexIdentity* identity) {
   out.clear();
+  if (identity) *identity = detail::VertexIdentity::kKeys;
   if (instances == nullptr && count > 0)
     return {ErrorCode::kMeshNotBuilt, "instances is null with count " + std::to_string(count)};
   if (!detail::isKeyMode(key_mode)) return detail::keyModeError(key_mode);
   if (!detail::inRange(lo) || !detail::inRange(hi) || (lo.array() > hi.array()).any())
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};
-  const KeyMode mode = resolveKeyMode(instances, count, key_mode);
+  KeyMode mode = resolveKeyMode(instances, count, key_mode);
+  if (identity && mode == KeyMode::kVertexPosition) {
+    *identity = detail::VertexIdentity::kKeysOrPositions;
+    mode = KeyMode::kVertexIndex;
+  }
   QueryScratch::Impl& sc = scratch.impl();
   const Vec3 centre = 0.5 * (lo + hi);
   const Vec3 half = 0.5 * (hi - lo);
@@ -171,14 +179,28 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
 
 Status gatherCandidates(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
                         KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
-  return gather(instances, count, lo, hi, nullptr, nullptr, key_mode, scratch, out);
+  return gather(instances, count, lo, hi, nullptr, nullptr, key_mode, scratch, out, nullptr);
 }
 
 Status detail::gatherCandidatesNearBox(const MeshInstance* instances, std::size_t count, const Vec3& lo,
                                        const Vec3& hi, const Pose& box_pose, const Vec3& half_extents,
                                        KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out) {
   const OrientedBox box{box_pose, half_extents};
-  return gather(instances, count, lo, hi, nullptr, &box, key_mode, scratch, out);
+  return gather(instances, count, lo, hi, nullptr, &box, key_mode, scratch, out, nullptr);
+}
+
+Status detail::gatherForFilter(const MeshInstance* instances, std::size_t count, const Vec3& lo, const Vec3& hi,
+                               KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out,
+                               VertexIdentity& identity) {
+  return gather(instances, count, lo, hi, nullptr, nullptr, key_mode, scratch, out, &identity);
+}
+
+Status detail::gatherNearBoxForFilter(const MeshInstance* instances, std::size_t count, const Vec3& lo,
+                                      const Vec3& hi, const Pose& box_pose, const Vec3& half_extents,
+                                      KeyMode key_mode, QueryScratch& scratch, std::vector<CandidateTriangle>& out,
+                                      VertexIdentity& identity) {
+  const OrientedBox box{box_pose, half_extents};
+  return gather(instances, count, lo, hi, nullptr, &box, key_mode, scratch, out, &identity);
 }
 
 namespace {
@@ -363,9 +385,10 @@ struct SphereNarrowphase {
 namespace {
 
 void sphereContacts(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count, bool boxes_tested,
-                    const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+                    const QuerySettings& settings, detail::VertexIdentity identity, QueryScratch& scratch,
+                    std::vector<Contact>& contacts) {
   const SphereNarrowphase narrowphase(sphere.center, sphere.radius, settings.contact_distance, boxes_tested);
-  detail::generateContacts(candidates, count, narrowphase, settings, scratch.impl().filter, contacts);
+  detail::generateContacts(candidates, count, narrowphase, settings, identity, scratch.impl().filter, contacts);
 }
 
 }  // namespace
@@ -376,7 +399,8 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
   const Status s = checkSphere(bound);
   if (!s) return s;
   const Vec3 extent = Vec3::Constant(bound.radius);
-  return gather(instances, count, bound.center - extent, bound.center + extent, &bound, nullptr, key_mode, scratch, out);
+  return gather(instances, count, bound.center - extent, bound.center + extent, &bound, nullptr, key_mode, scratch, out,
+                nullptr);
 }
 
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,
@@ -390,7 +414,7 @@ Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* ca
   if (!s) return s;
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
-  sphereContacts(sphere, candidates, count, false, settings, scratch, contacts);
+  sphereContacts(sphere, candidates, count, false, settings, detail::candidateIdentity(settings), scratch, contacts);
   return Status::ok();
 }
 
@@ -406,10 +430,11 @@ Status collideSphere(const MeshInstance* instances, std::size_t count, const Sph
   const Vec3 extent = Vec3::Constant(reach);
   QueryScratch::Impl& sc = scratch.impl();
   const Sphere bound{sphere.center, reach};
+  detail::VertexIdentity identity;
   s = gather(instances, count, sphere.center - extent, sphere.center + extent, &bound, nullptr, settings.key_mode, scratch,
-             sc.candidates);
+             sc.candidates, &identity);
   if (!s) return s;
-  sphereContacts(sphere, sc.candidates.data(), sc.candidates.size(), true, settings, scratch, contacts);
+  sphereContacts(sphere, sc.candidates.data(), sc.candidates.size(), true, settings, identity, scratch, contacts);
   return Status::ok();
 }
 

@@ -77,9 +77,10 @@ namespace detail {
 /// shape's size for the reduction's tolerances).
 template <class Narrowphase>
 void manifoldContacts(const Narrowphase& narrowphase, const CandidateTriangle* candidates, std::size_t count,
-                      const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+                      const QuerySettings& settings, VertexIdentity identity, QueryScratch& scratch,
+                      std::vector<Contact>& contacts) {
   QueryScratch::Impl& sc = scratch.impl();
-  generateContacts(candidates, count, narrowphase, settings, sc.filter, contacts);
+  generateContacts(candidates, count, narrowphase, settings, identity, sc.filter, contacts);
   reduceManifolds(contacts, settings, narrowphase.scale, sc.manifold);
 }
 

@@ -135,11 +135,15 @@ class VoidedSet {
   /// entered with a rank before `rank` (the triangle itself, entered with
   /// `rank`, never counts).
   bool isVoidedBefore(Feature f, const std::uint64_t k[3], const SortItem& rank) const {
-    if (f.type == FeatureType::kFace) return false;
-    const std::uint32_t* head = heads_.find(k[f.index]);
+    return isVoidedBefore(f.type, k[f.index], k[(f.index + 1) % 3], rank);
+  }
+  /// The same for vertex key a (kVertex) or the edge of keys a and b (kEdge);
+  /// false for the face.
+  bool isVoidedBefore(FeatureType type, std::uint64_t a, std::uint64_t b, const SortItem& rank) const {
+    if (type == FeatureType::kFace) return false;
+    const std::uint32_t* head = heads_.find(a);
     if (head == nullptr) return false;
-    const std::uint64_t a = k[f.index], b = k[(f.index + 1) % 3];
-    const bool vertex = f.type == FeatureType::kVertex;
+    const bool vertex = type == FeatureType::kVertex;
     for (std::uint32_t t = *head; t != kNone;) {
       const Tri& tri = tris_[t];
       // Two distinct keys of one triangle always form one of its edges.
@@ -148,6 +152,9 @@ class VoidedSet {
     }
     return false;
   }
+  std::size_t size() const { return count_; }
+  /// The rank of the i-th entered triangle (entry order).
+  const SortItem& rank(std::size_t i) const { return tris_[i].rank; }
 
  private:
   static constexpr std::uint32_t kNone = 0xffffffffu;
@@ -170,6 +177,20 @@ class VoidedSet {
   StampedMap<std::uint64_t, std::uint32_t, KeyHash> heads_;  // vertex key -> last entered triangle holding it
 };
 
+/// What makes two corners one vertex for the filter.
+enum class VertexIdentity : std::uint8_t {
+  /// Equal keys (CandidateTriangle::keys, as the caller set them).
+  kKeys,
+  /// Equal keys or bitwise-equal positions (-0 == +0): KeyMode::
+  /// kVertexPosition on keys that are vertex indices (equal keys must still
+  /// be equal positions). Hashing every corner's position cost 15-17% of a
+  /// sphere query's instructions on a floor; here the keys decide first, and positions are compared only for
+  /// the delayed patches the keys keep (none on most queries on a floor).
+  /// The verdicts are those of position keys: a triangle that holds a
+  /// feature by key holds it by position, so positions only add voids.
+  kKeysOrPositions,
+};
+
 /// Scratch of the filter; lives in QueryScratch::Impl.
 struct FilterScratch {
   std::vector<Patch> patches;
@@ -177,7 +198,61 @@ struct FilterScratch {
   std::vector<SortItem> delayed;
   std::vector<SortItem> accepted;
   VoidedSet voided;
+  // VertexIdentity::kKeysOrPositions on a query with many contacts: the
+  // entered triangles again, keyed by position (numbered in position_ids),
+  // built at the first patch the keys keep.
+  StampedMap<PositionKey, std::uint32_t, PositionHash> position_ids;
+  VoidedSet voided_by_position;
 };
+
+/// Up to this many entered triangles, a patch the keys keep is compared
+/// with each of them (a few instructions per triangle); beyond, the
+/// triangles are hashed by position once (~150 instructions each) and each
+/// such patch costs one lookup.
+inline constexpr std::size_t kPositionScanLimit = 48;
+
+/// Whether feature f of candidate c (a delayed contact, entered with rank
+/// `rank`) is held, by position, by a triangle entered before it (the
+/// VertexIdentity::kKeysOrPositions test for a patch the keys keep).
+/// `built` says whether s.voided_by_position is current for this query.
+inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch& s, Feature f,
+                             const CandidateTriangle& c, const SortItem& rank, bool& built) {
+  const Vec3& a = c.vertices[f.index];
+  const Vec3& b = c.vertices[(f.index + 1) % 3];
+  const bool vertex = f.type == FeatureType::kVertex;
+  const std::size_t entered = s.voided.size();
+  if (entered <= kPositionScanLimit) {
+    for (std::size_t i = 0; i < entered; ++i) {
+      const SortItem& r = s.voided.rank(i);
+      if (!(r < rank)) continue;
+      const Vec3* v = candidates[s.patch_candidate[r.patch]].vertices;
+      // Exact comparison, as position keys compare bits (finite corners;
+      // -0 == +0): a's first corner, then b among the other two.
+      const int ka = v[0] == a ? 0 : v[1] == a ? 1 : v[2] == a ? 2 : -1;
+      if (ka < 0) continue;
+      if (vertex || v[(ka + 1) % 3] == b || v[(ka + 2) % 3] == b) return true;
+    }
+    return false;
+  }
+  if (!built) {
+    s.position_ids.reset(3 * entered);
+    s.voided_by_position.reset(entered);
+    for (std::size_t i = 0; i < entered; ++i) {
+      const SortItem& r = s.voided.rank(i);
+      const Vec3* v = candidates[s.patch_candidate[r.patch]].vertices;
+      std::uint64_t k[3];
+      for (int j = 0; j < 3; ++j)
+        k[j] = s.position_ids.insert(positionKey(v[j].data()), static_cast<std::uint32_t>(s.position_ids.size()));
+      s.voided_by_position.add(k, r.distance, r.mesh, r.triangle, r.patch);
+    }
+    built = true;
+  }
+  // c itself was entered: its corners have numbers.
+  const std::uint32_t* ka = s.position_ids.find(positionKey(a.data()));
+  const std::uint32_t* kb = s.position_ids.find(positionKey(b.data()));
+  if (ka == nullptr || kb == nullptr) return false;
+  return s.voided_by_position.isVoidedBefore(f.type, *ka, *kb, rank);
+}
 
 inline Verdict contactVerdict(Feature f) {
   switch (f.type) {
@@ -203,7 +278,8 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 /// (mesh, triangle).
 template <class Narrowphase>
 void generateContacts(const CandidateTriangle* candidates, std::size_t count, Narrowphase&& narrowphase,
-                      const QuerySettings& settings, FilterScratch& s, std::vector<Contact>& contacts) {
+                      const QuerySettings& settings, VertexIdentity identity, FilterScratch& s,
+                      std::vector<Contact>& contacts) {
   constexpr bool deferred = DefersEdgesAndVertices<Narrowphase>::value;
   const bool filter = settings.filter == FilterMode::kVoidedFeatures;
   std::vector<TraceEntry>* trace = settings.trace;
@@ -252,10 +328,13 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   }
 
   // Pass 2: each delayed contact against the triangles ranked before it (§5).
+  bool positions_built = false;
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
-    const bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
+    bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
+    if (!voided && identity == VertexIdentity::kKeysOrPositions)
+      voided = voidedByPosition(candidates, s, p.feature, c, item, positions_built);
     const bool face_only = voided && p.face_count > 0;
     if (face_only) {  // the patch becomes its face part
       p.feature = Feature::face();

@@ -510,6 +510,9 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     }
   }
 
+  // The walk of the model in place leaves index keys: the filter then
+  // matches positions (below).
+  bool by_position = false;
   if (compact) {
     // The compact copy of the hierarchy (the ModelCache's TriangleMesh).
     if (checking) {
@@ -553,14 +556,14 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   } else {
     s = detail::gatherModel(mesh, volume, Pose::identity(), 0, sc.stack, sc.candidates, checking ? &checker : nullptr);
     if (!s) return s;
-    // The walk leaves each corner's vertex index in its key. Position keys
-    // unless the caller asked for index keys: an FCL model may duplicate its
-    // vertices (an STL file's, pieces appended), and the walk in place cannot
-    // tell (kAuto). The narrowphase checks the corners either way.
-    if (!checking && options.settings.key_mode != KeyMode::kVertexIndex) {
-      s = assignPositionKeysFromIndices(sc.candidates.data(), sc.candidates.size(), sc.query);
-      if (!s) return s;
-    }
+    // The walk leaves each corner's vertex index in its key. Vertex identity
+    // by position unless the caller asked for index keys: an FCL model may
+    // duplicate its vertices (an STL file's, pieces appended), and the walk
+    // in place cannot tell (kAuto). The filter matches positions itself
+    // (KeyMode::kVertexPosition on index keys, query.h): cheaper than
+    // assignPositionKeysFromIndices, which hashes every corner. The
+    // narrowphase checks the corners either way.
+    by_position = options.settings.key_mode != KeyMode::kVertexIndex;
   }
   if (checking) {
     if (!checker.status) return checker.status;
@@ -572,7 +575,9 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
       if (checker.hit) sc.contacts.push_back(checker.found);
     }
   } else {
-    s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), options.settings,
+    QuerySettings settings = options.settings;
+    if (by_position) settings.key_mode = KeyMode::kVertexPosition;
+    s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), settings,
                                   sc.query, sc.contacts);
     if (!s) return s;
   }

@@ -77,6 +77,12 @@ struct QuerySettings {
   /// inflated radius is radius + contact_distance.
   double contact_distance = 0.0;
   /// A value none of the enum's (a cast integer) is kInvalidSettings.
+  /// The whole pipelines (collideSphere(mesh, ...) and the others) resolve
+  /// it over their meshes (resolveKeyMode). The candidates' stages
+  /// (collide*Candidates) compare the keys the candidates carry, and with
+  /// kVertexPosition also count corners at bitwise-equal positions as one
+  /// vertex: vertex indices (equal keys still equal positions) then serve as
+  /// keys, with no assignPositionKeys() pass (filter.h).
   KeyMode key_mode = KeyMode::kAuto;
   FilterMode filter = FilterMode::kVoidedFeatures;
   /// When non-null, cleared and filled with one entry per candidate triangle

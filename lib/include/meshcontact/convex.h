@@ -261,6 +261,7 @@ class CylinderShape final : public SupportShape {
 /// manifold reduction. Replaces `contacts` (query frame, sorted by (mesh,
 /// triangle) before the reduction); the result does not depend on the order
 /// of `candidates`. Contact points lie on the rounded shape's surface.
+/// Vertex identity as for collideSphereCandidates (query.h).
 /// Errors: kInvalidShape (validate() failed, a support point or center is
 /// not finite, the margin is negative or not finite, or the shape has no
 /// extent), kInvalidPose, kInvalidSettings (contact distance, manifold

@@ -91,7 +91,9 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
 /// Stage 2 for a sphere: per-triangle closest points, then the filter.
 /// Replaces `contacts` (no fixed capacity; nothing is dropped except by the
 /// filter, and the trace says why). The result does not depend on the order
-/// of `candidates`: contacts come out sorted by (mesh, triangle).
+/// of `candidates`: contacts come out sorted by (mesh, triangle). Vertex
+/// identity: the candidates' keys, and with settings.key_mode ==
+/// kVertexPosition their bitwise-equal positions too (QuerySettings).
 /// Errors: kInvalidShape (non-finite centre, negative or non-finite radius),
 /// kInvalidSettings (negative or non-finite contact distance, a filter mode
 /// none of FilterMode's), kNonFiniteVertex (a candidate's corner is not

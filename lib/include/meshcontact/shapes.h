@@ -41,7 +41,9 @@ struct Cylinder {
 // Capsule and box queries. Same shape as collideSphere (query.h): `pose` places
 // the shape in the query frame; contacts are in the query frame and sorted by
 // (mesh, triangle) before the optional manifold reduction (QuerySettings).
-// The result never depends on the order of the candidates.
+// The result never depends on the order of the candidates. The *Candidates
+// functions compare vertices as collideSphereCandidates does (the keys, and
+// positions too with settings.key_mode == kVertexPosition).
 // Errors: kInvalidShape (non-finite or negative radius / half_length /
 // half_extents, or a box whose half extents are all 0), kInvalidPose
 // (non-finite or non-orthonormal pose), kInvalidSettings (contact distance,

@@ -1,0 +1,232 @@
+// Vertex identity by position (KeyMode::kVertexPosition, reference §6) in the
+// pipelines: the midphase gives index keys and the filter compares positions
+// only for the delayed patches the keys keep (voided_features.h,
+// VertexIdentity::kKeysOrPositions). Its contacts and verdicts must be those
+// of real position keys (gatherCandidates with kVertexPosition, then the
+// candidates' stage with the keys as given), bit for bit, on meshes where
+// positions matter: an unwelded terrain (an STL file's duplicated vertices),
+// an unwelded cliff, and separate posed tiles; with few triangles entered
+// in the filter (each compared with the others) and many (hashed by
+// position).
+#include "test_support.h"
+
+#include <meshcontact/convex.h>
+#include <meshcontact/meshcontact.h>
+#include <meshcontact/shapes.h>
+#include <meshcontact_scenes/scenes.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace meshcontact {
+namespace {
+
+using scenes::Rng;
+using scenes::SceneMesh;
+using testing::bitwiseEqual;
+using testing::str;
+
+struct Surface {
+  std::string name;
+  std::vector<TriangleMesh> meshes;
+  std::vector<MeshInstance> instances;
+  Vec3 lo, hi;  // where placements go (query frame)
+};
+
+Surface surface(const std::string& name, const std::vector<SceneMesh>& pieces, const Pose& pose, const Vec3& lo,
+                const Vec3& hi) {
+  Surface s;
+  s.name = name;
+  s.meshes.resize(pieces.size());
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    s.meshes[i] = testing::buildMesh(pieces[i]);
+    s.instances.push_back({&s.meshes[i], pose});
+  }
+  s.lo = pose.apply(lo);
+  s.hi = pose.apply(hi);
+  for (int k = 0; k < 3; ++k)
+    if (s.lo[k] > s.hi[k]) std::swap(s.lo[k], s.hi[k]);
+  return s;
+}
+
+std::vector<Surface> surfaces() {
+  std::vector<Surface> out;
+  out.push_back(surface("unwelded sine terrain", {scenes::unweld(scenes::sineTerrain(16, 16, 0.5, 0.6, 3.0, 5))},
+                        Pose::identity(), Vec3(0, 0, -0.5), Vec3(8, 8, 1.0)));
+  out.push_back(surface("unwelded cliff", {scenes::unweld(scenes::step(4.0, 1.0, 0.5, 6))}, Pose::identity(),
+                        Vec3(-3, -3, -0.2), Vec3(3, 3, 1.8)));
+  Pose moved;
+  moved.rotation = Rng(7).rotation();
+  moved.translation = Vec3(3.0, -2.0, 1.5);
+  out.push_back(surface("posed tiles", scenes::tiledFloor(4, 4, 3, 0.5, 8), moved, Vec3(0, 0, -0.3), Vec3(6, 6, 1.0)));
+  return out;
+}
+
+// One shape's query: the pipeline (index keys, positions in the filter), and
+// the candidates' stage on the given candidates and settings.
+struct ShapeQuery {
+  std::string name;
+  std::function<Status(const Surface&, const QuerySettings&, QueryScratch&, std::vector<Contact>&)> pipeline;
+  std::function<Status(const CandidateTriangle*, std::size_t, const QuerySettings&, QueryScratch&,
+                       std::vector<Contact>&)>
+      candidates;
+  Vec3 lo, hi;  // bounds that hold every triangle the shape can touch (contact distance included)
+};
+
+ShapeQuery randomQuery(Rng& rng, const Surface& s, int kind, double cd) {
+  const Vec3 c(rng.uniform(s.lo.x(), s.hi.x()), rng.uniform(s.lo.y(), s.hi.y()), rng.uniform(s.lo.z(), s.hi.z()));
+  Pose pose;
+  pose.rotation = rng.rotation();
+  pose.translation = c;
+  ShapeQuery q;
+  double bound = 0.0;
+  if (kind == 0) {
+    // Radii up to 2 m on 0.5 m cells: up to ~100 triangles entered.
+    const Sphere sphere{c, rng.uniform() < 0.5 ? rng.uniform(0.05, 0.6) : rng.uniform(0.6, 2.0)};
+    bound = sphere.radius;
+    q.name = "sphere r " + std::to_string(sphere.radius);
+    q.pipeline = [sphere](const Surface& sf, const QuerySettings& st, QueryScratch& sc, std::vector<Contact>& out) {
+      return collideSphere(sf.instances.data(), sf.instances.size(), sphere, st, sc, out);
+    };
+    q.candidates = [sphere](const CandidateTriangle* t, std::size_t n, const QuerySettings& st, QueryScratch& sc,
+                            std::vector<Contact>& out) { return collideSphereCandidates(sphere, t, n, st, sc, out); };
+  } else if (kind == 1) {
+    const Capsule capsule{rng.uniform(0.05, 0.8), rng.uniform(0.0, 1.0)};
+    bound = capsule.radius + capsule.half_length;
+    q.name = "capsule";
+    q.pipeline = [capsule, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc,
+                                 std::vector<Contact>& out) {
+      return collideCapsule(sf.instances.data(), sf.instances.size(), capsule, pose, st, sc, out);
+    };
+    q.candidates = [capsule, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st,
+                                   QueryScratch& sc, std::vector<Contact>& out) {
+      return collideCapsuleCandidates(capsule, pose, t, n, st, sc, out);
+    };
+  } else if (kind == 2) {
+    const Box box{Vec3(rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8))};
+    bound = box.half_extents.norm();
+    q.name = "box";
+    q.pipeline = [box, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc, std::vector<Contact>& out) {
+      return collideBox(sf.instances.data(), sf.instances.size(), box, pose, st, sc, out);
+    };
+    q.candidates = [box, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st, QueryScratch& sc,
+                               std::vector<Contact>& out) { return collideBoxCandidates(box, pose, t, n, st, sc, out); };
+  } else {
+    const Cylinder cylinder{rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8)};
+    bound = cylinder.radius + cylinder.half_length;
+    q.name = "cylinder";
+    q.pipeline = [cylinder, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc,
+                                  std::vector<Contact>& out) {
+      return collideCylinder(sf.instances.data(), sf.instances.size(), cylinder, pose, st, sc, out);
+    };
+    q.candidates = [cylinder, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st,
+                                    QueryScratch& sc, std::vector<Contact>& out) {
+      return collideCylinderCandidates(cylinder, pose, t, n, st, sc, out);
+    };
+  }
+  // Generous bounds: triangles that touch nothing change no verdict.
+  const Vec3 reach = Vec3::Constant(bound + cd + 0.1);
+  q.lo = c - reach;
+  q.hi = c + reach;
+  return q;
+}
+
+// Entry by entry; the feature only where the trace gives it meaning (a
+// contact or a voided patch, contact.h).
+bool isContactVerdict(Verdict v) {
+  return v != Verdict::kBackFacing && v != Verdict::kBeyondContactDistance && v != Verdict::kDegenerate;
+}
+
+bool sameTrace(const std::vector<TraceEntry>& a, const std::vector<TraceEntry>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].mesh != b[i].mesh || a[i].triangle != b[i].triangle || a[i].verdict != b[i].verdict ||
+        std::memcmp(&a[i].distance, &b[i].distance, sizeof(double)) != 0)
+      return false;
+    if (isContactVerdict(a[i].verdict) && !(a[i].feature == b[i].feature)) return false;
+  }
+  return true;
+}
+
+std::size_t entered(const std::vector<TraceEntry>& trace) {
+  std::size_t n = 0;
+  for (const TraceEntry& e : trace) n += isContactVerdict(e.verdict);
+  return n;
+}
+TEST(PositionIdentity, PipelinesMatchPositionKeysBitForBit) {
+  const int placements = testing::scaled(1500);
+  QueryScratch scratch;
+  std::vector<Contact> pipeline, reference, by_index_keys, index_only;
+  std::vector<TraceEntry> index_trace, reference_trace;
+  std::vector<CandidateTriangle> candidates;
+  // Placements where positions void a patch that index keys keep, with few
+  // and with many triangles entered: both ways of comparing positions ran.
+  int positions_mattered_few = 0, positions_mattered_many = 0, with_contacts = 0;
+  for (const Surface& s : surfaces()) {
+    ASSERT_EQ(resolveKeyMode(s.instances.data(), s.instances.size(), KeyMode::kAuto), KeyMode::kVertexPosition)
+        << s.name;
+    Rng rng(99);
+    for (int i = 0; i < placements; ++i) {
+      const int kind = i % 4;
+      const double cd = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.3);
+      const ShapeQuery q = randomQuery(rng, s, kind, cd);
+      SCOPED_TRACE(s.name + ", placement " + std::to_string(i) + ": " + q.name);
+      QuerySettings settings;
+      settings.contact_distance = cd;  // kAuto: positions, these surfaces repeat vertices
+      ASSERT_TRUE(q.pipeline(s, settings, scratch, pipeline).isOk());
+
+      // Position keys, compared as keys only (kAuto on given candidates).
+      ASSERT_TRUE(gatherCandidates(s.instances.data(), s.instances.size(), q.lo, q.hi, KeyMode::kVertexPosition,
+                                   scratch, candidates)
+                      .isOk());
+      ASSERT_TRUE(q.candidates(candidates.data(), candidates.size(), settings, scratch, reference).isOk());
+      EXPECT_TRUE(bitwiseEqual(pipeline, reference)) << pipeline.size() << " vs " << reference.size() << " contacts";
+
+      // Index keys given with kVertexPosition: the candidates' stage matches
+      // positions too (query.h).
+      ASSERT_TRUE(gatherCandidates(s.instances.data(), s.instances.size(), q.lo, q.hi, KeyMode::kVertexIndex, scratch,
+                                   candidates)
+                      .isOk());
+      QuerySettings by_position = settings;
+      by_position.key_mode = KeyMode::kVertexPosition;
+      ASSERT_TRUE(q.candidates(candidates.data(), candidates.size(), by_position, scratch, by_index_keys).isOk());
+      EXPECT_TRUE(bitwiseEqual(by_index_keys, reference));
+      // ... and the same index keys compared as keys only: what positions add.
+      ASSERT_TRUE(q.candidates(candidates.data(), candidates.size(), settings, scratch, index_only).isOk());
+
+      // The verdicts too, on the same candidates: index keys with positions
+      // against position keys.
+      QuerySettings traced = by_position;
+      traced.trace = &index_trace;
+      ASSERT_TRUE(q.candidates(candidates.data(), candidates.size(), traced, scratch, by_index_keys).isOk());
+      ASSERT_TRUE(gatherCandidates(s.instances.data(), s.instances.size(), q.lo, q.hi, KeyMode::kVertexPosition,
+                                   scratch, candidates)
+                      .isOk());
+      traced = settings;
+      traced.trace = &reference_trace;
+      ASSERT_TRUE(q.candidates(candidates.data(), candidates.size(), traced, scratch, reference).isOk());
+      EXPECT_TRUE(sameTrace(index_trace, reference_trace));
+      if (::testing::Test::HasFailure()) return;
+
+      with_contacts += !reference.empty();
+      if (!bitwiseEqual(index_only, reference)) {
+        if (entered(reference_trace) <= 48) ++positions_mattered_few;
+        else ++positions_mattered_many;
+      }
+    }
+  }
+  EXPECT_GT(with_contacts, placements);
+  // 48: kPositionScanLimit (voided_features.h), the boundary between the two ways.
+  EXPECT_GT(positions_mattered_few, placements / 10);
+  EXPECT_GT(positions_mattered_many, placements / 100);
+  std::printf("positions voided what index keys kept: %d placements with <= 48 triangles entered, %d with more\n",
+              positions_mattered_few, positions_mattered_many);
+}
+
+}  // namespace
+}  // namespace meshcontact
