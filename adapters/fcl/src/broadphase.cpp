@@ -166,7 +166,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     if (compact) {
       // The core's midphase on the cached hierarchy, in the model frame,
       // then mapped like the in-place walk; its keys are the vertex indices,
-      // as the walk's (position keys are set below for all).
+      // as the walk's (made per object below).
       const MeshInstance instance{compact, Pose::identity()};
       s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.gathered);
       if (!s) return s;
@@ -182,10 +182,17 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
       if (!s) return s;
     }
   }
-  s = assignPositionKeysFromIndices(sc.candidates.data(), sc.candidates.size(), sc.query);
-  if (!s) return s;
-  s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), options.settings,
-                                sc.query, sc.contacts);
+  // The objects form one surface where their vertices meet at bitwise-equal
+  // positions (reference §6): keys that tell the objects apart (object <<
+  // 32 | vertex index; equal keys are then equal positions), and the filter
+  // matches positions for the edge and vertex contacts those keys keep
+  // (KeyMode::kVertexPosition on index keys, query.h).
+  for (CandidateTriangle& c : sc.candidates)
+    for (std::uint64_t& key : c.keys) key = static_cast<std::uint64_t>(c.mesh) << 32 | (key & 0xffffffffu);
+  QuerySettings settings = options.settings;
+  settings.key_mode = KeyMode::kVertexPosition;
+  s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), settings, sc.query,
+                                sc.contacts);
   if (!s) return s;
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     Contact through;
