@@ -21,6 +21,7 @@
 #include <cstring>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace meshcontact {
@@ -29,7 +30,6 @@ namespace {
 using scenes::Rng;
 using scenes::SceneMesh;
 using testing::bitwiseEqual;
-using testing::str;
 
 struct Surface {
   std::string name;
@@ -78,6 +78,26 @@ struct ShapeQuery {
   Vec3 lo, hi;  // bounds that hold every triangle the shape can touch (contact distance included)
 };
 
+// A posed shape's two entries (collideCapsule and collideCapsuleCandidates,
+// and so on).
+template <class Shape>
+using PosedPipeline = Status (*)(const MeshInstance*, std::size_t, const Shape&, const Pose&, const QuerySettings&,
+                                 QueryScratch&, std::vector<Contact>&);
+template <class Shape>
+using PosedCandidates = Status (*)(const Shape&, const Pose&, const CandidateTriangle*, std::size_t,
+                                   const QuerySettings&, QueryScratch&, std::vector<Contact>&);
+
+template <class Shape>
+void posedQuery(ShapeQuery& q, const std::string& name, const Shape& shape, const Pose& pose,
+                PosedPipeline<Shape> pipeline, PosedCandidates<Shape> candidates) {
+  q.name = name;
+  q.pipeline = [=](const Surface& sf, const QuerySettings& st, QueryScratch& sc, std::vector<Contact>& out) {
+    return pipeline(sf.instances.data(), sf.instances.size(), shape, pose, st, sc, out);
+  };
+  q.candidates = [=](const CandidateTriangle* t, std::size_t n, const QuerySettings& st, QueryScratch& sc,
+                     std::vector<Contact>& out) { return candidates(shape, pose, t, n, st, sc, out); };
+}
+
 ShapeQuery randomQuery(Rng& rng, const Surface& s, int kind, double cd) {
   const Vec3 c(rng.uniform(s.lo.x(), s.hi.x()), rng.uniform(s.lo.y(), s.hi.y()), rng.uniform(s.lo.z(), s.hi.z()));
   Pose pose;
@@ -98,36 +118,15 @@ ShapeQuery randomQuery(Rng& rng, const Surface& s, int kind, double cd) {
   } else if (kind == 1) {
     const Capsule capsule{rng.uniform(0.05, 0.8), rng.uniform(0.0, 1.0)};
     bound = capsule.radius + capsule.half_length;
-    q.name = "capsule";
-    q.pipeline = [capsule, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc,
-                                 std::vector<Contact>& out) {
-      return collideCapsule(sf.instances.data(), sf.instances.size(), capsule, pose, st, sc, out);
-    };
-    q.candidates = [capsule, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st,
-                                   QueryScratch& sc, std::vector<Contact>& out) {
-      return collideCapsuleCandidates(capsule, pose, t, n, st, sc, out);
-    };
+    posedQuery<Capsule>(q, "capsule", capsule, pose, collideCapsule, collideCapsuleCandidates);
   } else if (kind == 2) {
     const Box box{Vec3(rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8))};
     bound = box.half_extents.norm();
-    q.name = "box";
-    q.pipeline = [box, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc, std::vector<Contact>& out) {
-      return collideBox(sf.instances.data(), sf.instances.size(), box, pose, st, sc, out);
-    };
-    q.candidates = [box, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st, QueryScratch& sc,
-                               std::vector<Contact>& out) { return collideBoxCandidates(box, pose, t, n, st, sc, out); };
+    posedQuery<Box>(q, "box", box, pose, collideBox, collideBoxCandidates);
   } else {
     const Cylinder cylinder{rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8)};
     bound = cylinder.radius + cylinder.half_length;
-    q.name = "cylinder";
-    q.pipeline = [cylinder, pose](const Surface& sf, const QuerySettings& st, QueryScratch& sc,
-                                  std::vector<Contact>& out) {
-      return collideCylinder(sf.instances.data(), sf.instances.size(), cylinder, pose, st, sc, out);
-    };
-    q.candidates = [cylinder, pose](const CandidateTriangle* t, std::size_t n, const QuerySettings& st,
-                                    QueryScratch& sc, std::vector<Contact>& out) {
-      return collideCylinderCandidates(cylinder, pose, t, n, st, sc, out);
-    };
+    posedQuery<Cylinder>(q, "cylinder", cylinder, pose, collideCylinder, collideCylinderCandidates);
   }
   // Generous bounds: triangles that touch nothing change no verdict.
   const Vec3 reach = Vec3::Constant(bound + cd + 0.1);
@@ -158,6 +157,7 @@ std::size_t entered(const std::vector<TraceEntry>& trace) {
   for (const TraceEntry& e : trace) n += isContactVerdict(e.verdict);
   return n;
 }
+
 TEST(PositionIdentity, PipelinesMatchPositionKeysBitForBit) {
   const int placements = testing::scaled(1500);
   QueryScratch scratch;
