@@ -58,8 +58,8 @@
 #include "meshcontact/convex.h"
 
 #include "convex_passes.h"
-#include "gather.h"
 #include "convex_patch.h"
+#include "gather.h"
 #include "gjk_distance.h"
 #include "hull3d.h"
 #include "manifold_reduction.h"
