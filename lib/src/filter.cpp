@@ -122,7 +122,8 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
   };
   QueryScratch::Impl& sc = scratch.impl();
   // The keys as the caller set them (assignPositionKeys...).
-  detail::generateContacts(candidates, count, narrowphase, settings, detail::VertexIdentity::kKeys, sc.filter, contacts);
+  detail::generateContacts(candidates, count, narrowphase, settings, detail::VertexIdentity::kKeys, sc.filter,
+                           contacts);
   detail::reduceManifolds(contacts, settings, length_scale, sc.manifold);
   return Status::ok();
 }

@@ -184,8 +184,9 @@ enum class VertexIdentity : std::uint8_t {
   /// Equal keys or bitwise-equal positions (-0 == +0): KeyMode::
   /// kVertexPosition on keys that are vertex indices (equal keys must still
   /// be equal positions). Hashing every corner's position cost 15-17% of a
-  /// sphere query's instructions on a floor; here the keys decide first, and positions are compared only for
-  /// the delayed patches the keys keep (none on most queries on a floor).
+  /// sphere query's instructions on a floor; here the keys decide first,
+  /// and positions are compared only for the delayed patches the keys keep
+  /// (none on most queries on a floor).
   /// The verdicts are those of position keys: a triangle that holds a
   /// feature by key holds it by position, so positions only add voids.
   kKeysOrPositions,
