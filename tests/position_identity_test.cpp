@@ -11,12 +11,15 @@
 #include "test_support.h"
 
 #include <meshcontact/convex.h>
+#include <meshcontact/filter.h>
 #include <meshcontact/meshcontact.h>
 #include <meshcontact/shapes.h>
 #include <meshcontact_scenes/scenes.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -226,6 +229,68 @@ TEST(PositionIdentity, PipelinesMatchPositionKeysBitForBit) {
   EXPECT_GT(positions_mattered_many, placements / 100);
   std::printf("positions voided what index keys kept: %d placements with <= 48 triangles entered, %d with more\n",
               positions_mattered_few, positions_mattered_many);
+}
+
+// Hand-made candidates on both sides of kPositionScanLimit (48 triangles
+// entered in the filter; voided_features.h): a sphere's face contact on
+// triangle A, and triangle B of another mesh that shares A's edge by
+// position only (other keys, and -0 where A has +0), whose edge contact A
+// voids through positions alone; `fillers` separate small triangles within
+// reach, each a contact of its own that voids nothing, set how many
+// triangles are entered. Every way of matching positions must void B and
+// give position keys' contacts, bit for bit.
+TEST(PositionIdentity, EdgeSharedByPositionOnBothSidesOfTheScanLimit) {
+  const Sphere sphere{Vec3(0.25, 0.25, 0.9), 1.0};
+  QueryScratch scratch;
+  std::vector<Contact> contacts, reference, index_only;
+  std::vector<TraceEntry> trace;
+  for (const int fillers : {0, 46, 47, 48, 200}) {
+    SCOPED_TRACE(std::to_string(fillers) + " fillers");
+    std::vector<CandidateTriangle> candidates;
+    const auto add = [&](std::uint32_t mesh, std::uint32_t triangle, const Vec3& a, const Vec3& b, const Vec3& c,
+                         std::uint64_t first_key) {
+      CandidateTriangle& t = candidates.emplace_back();
+      t.mesh = mesh;
+      t.triangle = triangle;
+      t.vertices[0] = a, t.vertices[1] = b, t.vertices[2] = c;
+      for (int k = 0; k < 3; ++k) t.keys[k] = static_cast<std::uint64_t>(mesh) << 32 | (first_key + k);
+    };
+    // Fillers first: the midphase's order must not matter, nor where A and B are.
+    for (int i = 0; i < fillers; ++i) {
+      // On a circle of radius 0.3 about the centre's foot, 5 cm below A's
+      // plane: in front and within reach (distance ~0.99), with the foot
+      // outside them (edge or vertex contacts), apart from each other.
+      const double angle = 6.283185307179586 * i / fillers;
+      const Vec3 o = Vec3(0.25, 0.25, -0.05) + 0.3 * Vec3(std::cos(angle), std::sin(angle), 0.0);
+      add(2, static_cast<std::uint32_t>(i), o, o + Vec3(0.004, 0, 0), o + Vec3(0, 0.004, 0), 3 * i);
+    }
+    add(0, 0, Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), 0);        // A: the face under the centre
+    add(1, 0, Vec3(1, -0.0, -0.0), Vec3(1, 1, 0), Vec3(0, 1, -0.0), 0);  // B: edge (1,0,0)-(0,1,0) by position
+    const std::size_t n = candidates.size();
+
+    QuerySettings settings;
+    settings.key_mode = KeyMode::kVertexPosition;
+    settings.trace = &trace;
+    ASSERT_TRUE(collideSphereCandidates(sphere, candidates.data(), n, settings, scratch, contacts).isOk());
+    ASSERT_EQ(trace.size(), n);
+    EXPECT_EQ(entered(trace), n) << "every candidate is a contact or voided";
+    const auto b = std::find_if(trace.begin(), trace.end(), [](const TraceEntry& e) { return e.mesh == 1; });
+    ASSERT_NE(b, trace.end());
+    EXPECT_EQ(b->verdict, Verdict::kVoided) << toString(b->verdict);
+
+    // Keys alone keep B's edge: positions did the voiding.
+    settings.key_mode = KeyMode::kVertexIndex;
+    settings.trace = nullptr;
+    ASSERT_TRUE(collideSphereCandidates(sphere, candidates.data(), n, settings, scratch, index_only).isOk());
+    EXPECT_EQ(index_only.size(), contacts.size() + 1);
+
+    // Position keys, compared as keys.
+    std::vector<CandidateTriangle> keyed = candidates;
+    ASSERT_TRUE(assignPositionKeys(keyed.data(), n, scratch).isOk());
+    ASSERT_TRUE(collideSphereCandidates(sphere, keyed.data(), n, settings, scratch, reference).isOk());
+    EXPECT_TRUE(bitwiseEqual(contacts, reference)) << contacts.size() << " vs " << reference.size() << " contacts";
+    EXPECT_EQ(contacts.size(), n - 1);
+  }
 }
 
 }  // namespace

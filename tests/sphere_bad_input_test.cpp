@@ -2,6 +2,7 @@
 // no partially filled output.
 #include "test_support.h"
 
+#include <meshcontact/convex.h>
 #include <meshcontact/filter.h>
 #include <meshcontact/shapes.h>
 
@@ -426,6 +427,22 @@ TEST(Settings, ModesOutsideTheirEnumsAreErrors) {
   patch.count = 1;
   expectError(filterPatches(candidates.data(), &patch, 1, 1.0, bad_filter, scratch, contacts),
               ErrorCode::kInvalidSettings, "filter mode 7");
+  // The candidates' stages read the key mode too (kVertexPosition: match
+  // positions); so does every stage that takes settings.
+  const Pose pose;
+  expectError(collideSphereCandidates(sphere, candidates.data(), candidates.size(), bad_key, scratch, contacts),
+              ErrorCode::kInvalidSettings, "key mode 7");
+  expectError(collideCapsuleCandidates(Capsule{0.1, 0.2}, pose, candidates.data(), candidates.size(), bad_key, scratch,
+                                       contacts),
+              ErrorCode::kInvalidSettings, "key mode 7");
+  expectError(collideBoxCandidates(Box{Vec3(0.1, 0.1, 0.1)}, pose, candidates.data(), candidates.size(), bad_key,
+                                   scratch, contacts),
+              ErrorCode::kInvalidSettings, "key mode 7");
+  expectError(collideCylinderCandidates(Cylinder{0.1, 0.2}, pose, candidates.data(), candidates.size(), bad_key,
+                                        scratch, contacts),
+              ErrorCode::kInvalidSettings, "key mode 7");
+  expectError(filterPatches(candidates.data(), &patch, 1, 1.0, bad_key, scratch, contacts),
+              ErrorCode::kInvalidSettings, "key mode 7");
 }
 
 // Values in messages read at their own scale: std::to_string's %f printed

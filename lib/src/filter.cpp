@@ -101,6 +101,9 @@ Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* p
   Status s = detail::checkManifoldSettings(settings);
   if (!s) return s;
   if (s = detail::checkFilterMode(settings.filter); !s) return s;
+  // Not read here (the keys are compared as given), but a value none of the
+  // enum's is an error wherever the settings are taken (contact.h).
+  if (!detail::isKeyMode(settings.key_mode)) return detail::keyModeError(settings.key_mode);
   if (s = checkArray(candidates, count, "candidates"); !s) return s;
   if (s = checkArray(patches, count, "patches"); !s) return s;
   for (std::size_t i = 0; i < count; ++i) {

@@ -73,8 +73,8 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     }
     const TriangleMesh& mesh = *instances[m].mesh;
     const Pose& pose = instances[m].pose;
-    const bool identity = pose.isIdentity();
-    if (!identity) {  // the identity is valid: no matrix check
+    const bool unposed = pose.isIdentity();
+    if (!unposed) {  // the identity pose is valid: no matrix check
       // The name is built only on failure: no string (and no allocation) per query.
       Status s = detail::checkPose(pose, "mesh instance");
       if (!s) {
@@ -84,7 +84,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     }
     // The query box in the mesh frame: the bounds of the rotated box.
     Vec3 local_lo = lo, local_hi = hi;
-    if (!identity) {
+    if (!unposed) {
       const Vec3 c = pose.applyInverse(centre);
       const Vec3 h = pose.rotation.transpose().cwiseAbs() * half;
       local_lo = c - h;
@@ -103,9 +103,9 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     if (missed) continue;
     sc.hits.clear();
     if (bound)
-      mesh.querySphere(identity ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,
+      mesh.querySphere(unposed ? bound->center : pose.applyInverse(bound->center), bound->radius, sc.hits,
                        sc.walk_queue);
-    else if (box_bound && identity)
+    else if (box_bound && unposed)
       mesh.queryOrientedBox(local_lo, local_hi, box_bound->pose, box_bound->half_extents, sc.hits, sc.walk_queue);
     else if (box_bound)
       // The box in the mesh's frame (translations subtracted first), inflated
@@ -164,7 +164,7 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     using Yes = std::true_type;
     using No = std::false_type;
     const bool by_position = mode == KeyMode::kVertexPosition;
-    if (identity) {
+    if (unposed) {
       if (by_position) append(No{}, Yes{});
       else append(No{}, No{});
     } else {

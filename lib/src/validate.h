@@ -34,11 +34,14 @@ inline Status checkFilterMode(FilterMode mode) {
 inline bool isKeyMode(KeyMode mode) {
   return mode == KeyMode::kAuto || mode == KeyMode::kVertexIndex || mode == KeyMode::kVertexPosition;
 }
-/// What every query reads of its settings: checkContactDistance and
-/// checkFilterMode (the key mode is the midphase's, gather() checks it).
+/// What every query reads of its settings: the contact distance, the filter
+/// mode and the key mode (the candidates' stages read it too: kVertexPosition
+/// makes the filter match positions). gather() checks the key mode again,
+/// for gatherCandidates, which takes no settings.
 inline Status checkQuerySettings(const QuerySettings& settings) {
   Status s = checkContactDistance(settings.contact_distance);
   if (!s) return s;
+  if (!isKeyMode(settings.key_mode)) return keyModeError(settings.key_mode);
   return checkFilterMode(settings.filter);
 }
 /// Every corner of the candidates finite and within +-kMaxCoordinate, as a

@@ -199,9 +199,10 @@ struct FilterScratch {
   std::vector<SortItem> delayed;
   std::vector<SortItem> accepted;
   VoidedSet voided;
-  // VertexIdentity::kKeysOrPositions on a query with many contacts: the
-  // entered triangles again, keyed by position (numbered in position_ids),
-  // built at the first patch the keys keep.
+  // VertexIdentity::kKeysOrPositions on a query with more than
+  // kPositionScanLimit contacts: the entered triangles again, keyed by
+  // position (numbered in position_ids), built at the first patch the keys
+  // keep.
   StampedMap<PositionKey, std::uint32_t, PositionHash> position_ids;
   VoidedSet voided_by_position;
 };
@@ -228,10 +229,12 @@ inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch&
       if (!(r < rank)) continue;
       const Vec3* v = candidates[s.patch_candidate[r.patch]].vertices;
       // Exact comparison, as position keys compare bits (finite corners;
-      // -0 == +0): a's first corner, then b among the other two.
-      const int ka = v[0] == a ? 0 : v[1] == a ? 1 : v[2] == a ? 2 : -1;
-      if (ka < 0) continue;
-      if (vertex || v[(ka + 1) % 3] == b || v[(ka + 2) % 3] == b) return true;
+      // -0 == +0): a among the corners, then b among them, as
+      // VoidedSet::isVoidedBefore tests keys (an edge whose ends share a
+      // position, only found on triangles the narrowphases call degenerate,
+      // then needs no second corner there either).
+      if (!(v[0] == a || v[1] == a || v[2] == a)) continue;
+      if (vertex || v[0] == b || v[1] == b || v[2] == b) return true;
     }
     return false;
   }

@@ -81,8 +81,10 @@ struct QuerySettings {
   /// it over their meshes (resolveKeyMode). The candidates' stages
   /// (collide*Candidates) compare the keys the candidates carry, and with
   /// kVertexPosition also count corners at bitwise-equal positions as one
-  /// vertex: vertex indices (equal keys still equal positions) then serve as
-  /// keys, with no assignPositionKeys() pass (filter.h).
+  /// vertex: vertex indices then serve as keys, with no assignPositionKeys()
+  /// pass (filter.h), as long as equal keys are equal positions across all
+  /// the candidates: with several meshes, mesh << 32 | index, not the bare
+  /// index (two meshes' vertex 5 would count as one vertex).
   KeyMode key_mode = KeyMode::kAuto;
   FilterMode filter = FilterMode::kVoidedFeatures;
   /// When non-null, cleared and filled with one entry per candidate triangle

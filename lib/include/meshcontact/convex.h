@@ -265,7 +265,7 @@ class CylinderShape final : public SupportShape {
 /// Errors: kInvalidShape (validate() failed, a support point or center is
 /// not finite, the margin is negative or not finite, or the shape has no
 /// extent), kInvalidPose, kInvalidSettings (contact distance, manifold
-/// angle, a filter mode none of FilterMode's), kNonFiniteVertex (a
+/// angle, a filter or key mode none of its enum's), kNonFiniteVertex (a
 /// candidate's corner is not finite or beyond +-1e50, the range of a built
 /// mesh's vertices; names the candidate and corner).
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,

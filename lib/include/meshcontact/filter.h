@@ -4,7 +4,8 @@
 // library's per-triangle contacts):
 //
 //   external midphase -> CandidateTriangle[] -> assignPositionKeys()
-//                        (or assignPositionKeysFromIndices())
+//                        (or assignPositionKeysFromIndices(), or index keys
+//                        with settings.key_mode = kVertexPosition: below)
 //                     -> collide*Candidates()            (our narrowphase)
 //   external per-triangle contacts -> TrianglePatch[] -> filterPatches()
 //                                                        (the filter only)
@@ -83,8 +84,8 @@ struct TrianglePatch {
 /// an edge 0..2 or a vertex 0..2, whose count is not 1..4, whose normal is
 /// not finite and unit within 1e-6, or whose distance, points or depths are
 /// not finite: names the patch; or bad manifold settings; or a length_scale
-/// that is not finite and > 0; or a filter mode none of FilterMode's; or a
-/// null array with count > 0).
+/// that is not finite and > 0; or a filter or key mode none of its enum's;
+/// or a null array with count > 0).
 Status filterPatches(const CandidateTriangle* candidates, const TrianglePatch* patches, std::size_t count,
                      double length_scale, const QuerySettings& settings, QueryScratch& scratch,
                      std::vector<Contact>& contacts);

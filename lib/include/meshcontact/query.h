@@ -95,8 +95,8 @@ Status gatherCandidatesNearSphere(const MeshInstance* instances, std::size_t cou
 /// identity: the candidates' keys, and with settings.key_mode ==
 /// kVertexPosition their bitwise-equal positions too (QuerySettings).
 /// Errors: kInvalidShape (non-finite centre, negative or non-finite radius),
-/// kInvalidSettings (negative or non-finite contact distance, a filter mode
-/// none of FilterMode's), kNonFiniteVertex (a candidate's corner is not
+/// kInvalidSettings (negative or non-finite contact distance, a filter or
+/// key mode none of its enum's), kNonFiniteVertex (a candidate's corner is not
 /// finite or beyond +-1e50, the range of a built mesh's vertices; names the
 /// candidate and corner).
 Status collideSphereCandidates(const Sphere& sphere, const CandidateTriangle* candidates, std::size_t count,

@@ -47,7 +47,7 @@ struct Cylinder {
 // Errors: kInvalidShape (non-finite or negative radius / half_length /
 // half_extents, or a box whose half extents are all 0), kInvalidPose
 // (non-finite or non-orthonormal pose), kInvalidSettings (contact distance,
-// manifold angle, a filter mode none of FilterMode's), plus the midphase's
+// manifold angle, a filter or key mode none of its enum's), plus the midphase's
 // errors (gatherCandidates); the *Candidates functions: kNonFiniteVertex for
 // a candidate corner that is not finite or beyond +-1e50 (as
 // collideSphereCandidates).
