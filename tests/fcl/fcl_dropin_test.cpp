@@ -224,6 +224,15 @@ TEST(DropIn, IndexKeysOnlyWhenAsked) {
   fcl::Options by_index;
   by_index.settings.key_mode = KeyMode::kVertexIndex;
   QuerySettings core_settings = by_index.settings;
+  // Through a ModelCache: the core's midphase gives index keys and the
+  // filter matches positions (kAuto on duplicated vertices, or asked).
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(welded_model.get()).isOk());
+  ASSERT_TRUE(cache.add(unwelded_model.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  fcl::Options cached_by_position = cached;
+  cached_by_position.settings.key_mode = KeyMode::kVertexPosition;
   scenes::Rng rng(58);
   fcl::Scratch scratch;
   QueryScratch core_scratch;
@@ -249,6 +258,9 @@ TEST(DropIn, IndexKeysOnlyWhenAsked) {
       // Duplicated vertices: position keys see through them.
       const auto by_position = run(unwelded_model, fcl::Options());
       EXPECT_EQ(compareContacts(by_position, reference, 0.0, false), "") << "unwelded, " << config;
+      EXPECT_EQ(compareContacts(run(unwelded_model, cached), reference, 0.0, false), "") << "unwelded, cached, " << config;
+      EXPECT_EQ(compareContacts(run(welded_model, cached_by_position), reference, 0.0, false), "")
+          << "welded, cached, kVertexPosition, " << config;
       fcl::Report report;
       const auto indexed = run(unwelded_model, by_index, &report);
       by_position_total += by_position.size();
@@ -622,7 +634,9 @@ struct BadInput {
   std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>> model = fclModel<::fcl::OBBRSSd>(terrain());
   fcl::Scratch scratch;
 
-  // Both the Status variant and the drop-in: the error, nothing appended.
+  // Both the Status variant and the drop-in (FCL's signature, which takes
+  // the default options: when the error is not in the options): the error,
+  // nothing appended.
   void expectError(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2, ErrorCode code,
                    const std::string& words, const ::fcl::CollisionRequestd& request = contactsRequest(),
                    const fcl::Options& options = fcl::Options()) {
@@ -632,7 +646,7 @@ struct BadInput {
     EXPECT_EQ(s.code(), code) << toString(s.code()) << ": " << s.message();
     EXPECT_NE(s.message().find(words), std::string::npos) << "message: " << s.message();
     EXPECT_EQ(result.numContacts(), 1u);
-    if (options.settings.contact_distance == 0.0) {
+    if (options.settings.contact_distance == 0.0 && options.settings.key_mode == KeyMode::kAuto) {
       EXPECT_EQ(fcl::collide(o1, o2, request, result), 1u);
       EXPECT_EQ(fcl::lastStatus().code(), code);
     }
@@ -905,6 +919,15 @@ TEST(DropInBadInput, BadShapesAndSettings) {
   fcl::Options negative_distance;
   negative_distance.settings.contact_distance = -0.1;
   b.expectError(&mesh, &sphere, ErrorCode::kInvalidSettings, "contact_distance", contactsRequest(), negative_distance);
+  // A key mode none of KeyMode's (a cast integer): an error, for contacts
+  // and for collision checking, also with a shape whose check never reaches
+  // the core's candidates' stage (the cylinder's support probe).
+  fcl::Options bad_key;
+  bad_key.settings.key_mode = static_cast<KeyMode>(7);
+  b.expectError(&mesh, &sphere, ErrorCode::kInvalidSettings, "key_mode 7", contactsRequest(), bad_key);
+  ::fcl::CollisionObjectd cylinder(std::make_shared<::fcl::Cylinderd>(0.2, 0.4), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &cylinder, ErrorCode::kInvalidSettings, "key_mode 7", ::fcl::CollisionRequestd(1, false),
+                bad_key);
 }
 
 TEST(DropInBadInput, PairFclCannotCollide) {

@@ -377,6 +377,10 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   const double cd = options.settings.contact_distance;
   if (!std::isfinite(cd) || cd < 0.0)
     return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + detail::describeValue(cd)};
+  const KeyMode key_mode = options.settings.key_mode;
+  if (key_mode != KeyMode::kAuto && key_mode != KeyMode::kVertexIndex && key_mode != KeyMode::kVertexPosition)
+    return {ErrorCode::kInvalidSettings, "settings.key_mode " + std::to_string(static_cast<int>(key_mode)) +
+                                             " is none of kAuto, kVertexIndex, kVertexPosition"};
 
   MeshDesc mesh;
   ShapeDesc shape;
@@ -435,7 +439,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     bool visit(const CandidateTriangle& c) override {
       // The walk keeps every triangle its volume reaches (model.cpp): a
       // vertex edited to NaN or Inf after endModel() is an error here, as
-      // assignPositionKeysFromIndices makes it for contacts.
+      // the candidates' stage (checkCandidates) makes it for contacts.
       for (int k = 0; k < 3; ++k)
         if (!c.vertices[k].allFinite()) {
           status = {ErrorCode::kNonFiniteVertex, "triangle " + std::to_string(c.triangle) + " corner " +
@@ -510,8 +514,8 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     }
   }
 
-  // The walk of the model in place leaves index keys: the filter then
-  // matches positions (below).
+  // Every branch leaves index keys; by_position: whether the filter also
+  // matches positions (KeyMode::kVertexPosition on index keys, query.h).
   bool by_position = false;
   if (compact) {
     // The compact copy of the hierarchy (the ModelCache's TriangleMesh).
@@ -542,15 +546,18 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
       CompactVisitor visitor(*compact, checker, sc.candidates);
       compact->visitNearSphere(volume.center, volume.radius, visitor, sc.stack);
     } else {
-      // The core's own midphase (which also sets the keys), on the query
-      // volume's bounds; for a sphere only the triangles near the ball, as
-      // the walk of FCL's tree below keeps.
+      // The core's own midphase, on the query volume's bounds; for a sphere
+      // only the triangles near the ball, as the walk of FCL's tree below
+      // keeps. Index keys, and the filter matches positions where the
+      // core's rule for this model asks for position keys (below): the same
+      // verdicts, without hashing every corner.
       const MeshInstance instance{compact, Pose::identity()};
+      by_position = resolveKeyMode(&instance, 1, key_mode) == KeyMode::kVertexPosition;
       if (volume.ball_only)
-        s = gatherCandidatesNearSphere(&instance, 1, Sphere{volume.center, volume.radius}, options.settings.key_mode,
+        s = gatherCandidatesNearSphere(&instance, 1, Sphere{volume.center, volume.radius}, KeyMode::kVertexIndex,
                                        sc.query, sc.candidates);
       else
-        s = gatherCandidates(&instance, 1, volume.lo, volume.hi, options.settings.key_mode, sc.query, sc.candidates);
+        s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.candidates);
       if (!s) return s;
     }
   } else {
@@ -563,7 +570,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     // (KeyMode::kVertexPosition on index keys, query.h): cheaper than
     // assignPositionKeysFromIndices, which hashes every corner. The
     // narrowphase checks the corners either way.
-    by_position = options.settings.key_mode != KeyMode::kVertexIndex;
+    by_position = key_mode != KeyMode::kVertexIndex;
   }
   if (checking) {
     if (!checker.status) return checker.status;
@@ -576,7 +583,7 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
     }
   } else {
     QuerySettings settings = options.settings;
-    if (by_position) settings.key_mode = KeyMode::kVertexPosition;
+    settings.key_mode = by_position ? KeyMode::kVertexPosition : KeyMode::kVertexIndex;
     s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), settings,
                                   sc.query, sc.contacts);
     if (!s) return s;

@@ -120,11 +120,13 @@ struct Options {
   /// settings.key_mode, for collide(): on a model walked in place, kAuto
   /// and kVertexPosition key the triangles' corners by position (an FCL
   /// model may duplicate its vertices, and the walk cannot tell);
-  /// kVertexIndex keys them by the model's vertex indices: cheaper (a
-  /// sphere's contacts 5-10% faster in fcl_bench, DropInIndexKeys) and right
-  /// only where shared vertices are shared indices (a welded model:
-  /// otherwise every internal edge between duplicated vertices counts as a
-  /// boundary, with its contacts). With a ModelCache, the core's rule: kAuto
+  /// kVertexIndex keys them by the model's vertex indices: right only where
+  /// shared vertices are shared indices (a welded model: otherwise every
+  /// internal edge between duplicated vertices counts as a boundary, with
+  /// its contacts), and no longer cheaper: the walk leaves index keys either
+  /// way, and the filter compares positions only for the edge and vertex
+  /// contacts those keys keep (fcl_bench's sphere contacts, DropInIndexKeys
+  /// against DropIn: within 3%). With a ModelCache, the core's rule: kAuto
   /// keys by index when the model has no duplicated vertex. The
   /// BroadphaseCollector and postFilter always key by position (their
   /// triangles come from several meshes or FCL's contacts).
