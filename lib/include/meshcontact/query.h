@@ -10,6 +10,16 @@
 // collideSphere() and friends run the whole pipeline. Every call is reentrant:
 // all scratch memory lives in the caller's QueryScratch, which grows to the
 // largest query seen and is then reused without allocating.
+//
+// Staged, with vertex identity by position (several meshes, duplicated
+// vertices): what the whole pipelines do is gather with KeyMode::kVertexIndex
+// (index keys, mesh << 32 | index) and pass settings.key_mode =
+// kVertexPosition to collide*Candidates, whose filter then compares
+// positions only where the keys leave an edge or vertex contact standing.
+// Gathering with kVertexPosition instead hashes every corner into position
+// keys; then leave the candidates' key mode at kAuto or kVertexIndex (keys
+// as given): with kVertexPosition it compares positions again on top, for
+// the same contacts.
 
 #include "meshcontact/contact.h"
 #include "meshcontact/geometry.h"
