@@ -258,7 +258,8 @@ TEST(DropIn, IndexKeysOnlyWhenAsked) {
       // Duplicated vertices: position keys see through them.
       const auto by_position = run(unwelded_model, fcl::Options());
       EXPECT_EQ(compareContacts(by_position, reference, 0.0, false), "") << "unwelded, " << config;
-      EXPECT_EQ(compareContacts(run(unwelded_model, cached), reference, 0.0, false), "") << "unwelded, cached, " << config;
+      EXPECT_EQ(compareContacts(run(unwelded_model, cached), reference, 0.0, false), "")
+          << "unwelded, cached, " << config;
       EXPECT_EQ(compareContacts(run(welded_model, cached_by_position), reference, 0.0, false), "")
           << "welded, cached, kVertexPosition, " << config;
       fcl::Report report;
