@@ -560,11 +560,50 @@ TEST(OdeConventions, ErrorsAreReportedNotPrinted) {
             }())
                 .code(),
             ErrorCode::kInvalidSettings);
+  // Modes none of their enums' values (cast integers), and a contact
+  // distance beyond the API's range: refused at once, not by every query.
+  ode::Settings bad_key;
+  bad_key.query.key_mode = static_cast<KeyMode>(7);
+  EXPECT_EQ(ode::installColliders(bad_key).code(), ErrorCode::kInvalidSettings);
+  ode::Settings bad_filter;
+  bad_filter.query.filter = static_cast<FilterMode>(7);
+  EXPECT_EQ(ode::setSettings(bad_filter).code(), ErrorCode::kInvalidSettings);
+  ode::Settings far;
+  far.query.contact_distance = 1e60;
+  EXPECT_EQ(ode::installColliders(far).code(), ErrorCode::kInvalidSettings);
+}
+
+// collideWithGroup is called from a near callback, not through dCollide,
+// which checks ODE's arguments: bad ones are reported errors, never a crash.
+TEST(OdeConventions, CollideWithGroupRefusesBadArguments) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  OdeMesh a(scenes::flatFloor(4, 4, 0.5, 2)), b(scenes::flatFloor(4, 4, 0.5, 3));
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  dGeomSetPosition(sphere, 1.0, 1.0, 0.1);
+  dContactGeom c[8];
+  const int skip = sizeof(dContactGeom);
+  const dGeomID pair[] = {a.geom, b.geom};
+  ASSERT_GT(ode::collideWithGroup(sphere, pair, 2, 8, c, skip), 0) << ode::lastError();
+  ode::resetStatistics();
+  const dGeomID with_null[] = {a.geom, nullptr};
+  const dGeomID twice[] = {a.geom, a.geom};
+  EXPECT_EQ(ode::collideWithGroup(sphere, pair, 2, 8, nullptr, skip), 0);
+  EXPECT_EQ(ode::collideWithGroup(sphere, pair, 2, 8, c, skip - 1), 0);
+  EXPECT_EQ(ode::collideWithGroup(nullptr, pair, 2, 8, c, skip), 0);
+  EXPECT_EQ(ode::collideWithGroup(sphere, with_null, 2, 8, c, skip), 0);
+  EXPECT_EQ(ode::collideWithGroup(sphere, twice, 2, 8, c, skip), 0);
+  EXPECT_EQ(ode::collideWithGroup(sphere, nullptr, 2, 8, c, skip), 0);
+  EXPECT_EQ(ode::statistics().errors, 6u);
+  EXPECT_NE(ode::lastError().find("no trimesh"), std::string::npos) << ode::lastError();
+  dGeomDestroy(sphere);
 }
 
 // A shape or trimesh pose with NaN or Inf in it is an error (counted, and
 // in lastError()), never a contact: the sphere's rotation included, which
-// its query does not read.
+// its query does not read. So is a trimesh rotation that is not orthonormal
+// (a scaled matrix), for the sphere too, whose centre alone goes to the
+// core.
 TEST(OdeConventions, NonFinitePosesAreErrorsNotContacts) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());
@@ -584,6 +623,7 @@ TEST(OdeConventions, NonFinitePosesAreErrorsNotContacts) {
       {"sphere position NaN", sphere, false, 1, nan}, {"sphere position Inf", sphere, false, 0, inf},
       {"sphere rotation NaN", sphere, false, 3, nan}, {"box rotation NaN", box, false, 8, nan},
       {"trimesh position NaN", sphere, true, 1, nan}, {"trimesh rotation NaN", sphere, true, 8, nan},
+      {"trimesh rotation scaled, sphere", sphere, true, 3, 2.0}, {"trimesh rotation scaled, box", box, true, 3, 2.0},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

@@ -106,7 +106,13 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
   ThreadContext& ctx = detail::threadContext();
   ctx.counters.addPairQuery();
   const Settings& settings = detail::refreshView(ctx);
-  Status s = detail::gatherInstanceList(trimeshes, count, shape, settings.query, ctx);
+  Status s;
+  // ODE checks these for its own colliders (dCollide's assertions); a near
+  // callback calls this function directly.
+  if (contacts == nullptr || skip < static_cast<int>(sizeof(dContactGeom)))
+    s = {ErrorCode::kInvalidSettings, "collideWithGroup: contacts is null or skip " + std::to_string(skip) +
+                                          " is below sizeof(dContactGeom)"};
+  if (s) s = detail::gatherInstanceList(trimeshes, count, shape, settings.query, ctx);
   if (s) s = detail::shapeInFrame(shape, ctx);
   if (s) s = detail::runShapeQuery(settings.query, ctx);
   if (!s) {

@@ -108,6 +108,18 @@ Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
 Status shapeInFrame(dGeomID shape, ThreadContext& ctx) {
   Status s = describeShape(shape, ctx, ctx.shape);
   if (!s) return s;
+  if (ctx.shape.kind == ShapeKind::kSphere && !ctx.frame.isIdentity()) {
+    // Every other shape's pose relative to the trimesh carries the trimesh's
+    // rotation into the core, which refuses it unless orthonormal (within
+    // geometry.h's 1e-9: kInvalidPose); the sphere's centre alone does not.
+    // A trimesh rotation that is not one (a scaled matrix, an unnormalised
+    // quaternion) moved the centre wrongly, with no error.
+    const Mat3& r = ctx.frame.rotation;
+    const double err = (r.transpose() * r - Mat3::Identity()).cwiseAbs().maxCoeff();
+    if (!(err <= 1e-9) || !(r.determinant() > 0.0))
+      return {ErrorCode::kInvalidPose, "trimesh geom's rotation is not a proper orthonormal matrix (|R^T R - I| = " +
+                                           describeValue(err) + ")"};
+  }
   // Shape pose relative to the trimesh: frame^-1 * world. With an identity
   // frame (the usual static ground) this is bit-exact.
   if (!ctx.frame.isIdentity()) ctx.shape.pose = ctx.frame.inverse() * ctx.shape.pose;
@@ -181,6 +193,17 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
                           ThreadContext& ctx) {
   clearInstances(ctx);
   if (trimeshes == nullptr || count < 1) return {ErrorCode::kInvalidSettings, "collideWithGroup: no trimesh geom"};
+  if (shape == nullptr) return {ErrorCode::kInvalidShape, "collideWithGroup: the shape geom is null"};
+  // Checked before any is read: a null geom would crash ODE's accessors, and
+  // a geom listed twice would give each of its contacts twice.
+  for (int i = 0; i < count; ++i) {
+    if (trimeshes[i] == nullptr)
+      return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(i) + " is null"};
+    for (int j = 0; j < i; ++j)
+      if (trimeshes[j] == trimeshes[i])
+        return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(i) +
+                                                 " is trimesh " + std::to_string(j) + " again"};
+  }
   ctx.frame = geomPose(trimeshes[0]);
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);

@@ -226,8 +226,18 @@ Status checkArrays(const void* vertices, int vertex_stride, int vertex_count, co
 
 Status checkSettings(const Settings& s) {
   const double d = s.query.contact_distance;
-  if (!std::isfinite(d) || d < 0.0)
-    return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + describeValue(d)};
+  if (!inRange(d) || d < 0.0)
+    return {ErrorCode::kInvalidSettings, "contact_distance must be finite, >= 0 and <= 1e50, got " + describeValue(d)};
+  // Refused here rather than on every later query: the core would fail each
+  // one with the same error (contact.h), and installColliders returned ok.
+  const KeyMode key = s.query.key_mode;
+  if (key != KeyMode::kAuto && key != KeyMode::kVertexIndex && key != KeyMode::kVertexPosition)
+    return {ErrorCode::kInvalidSettings,
+            "query.key_mode " + std::to_string(static_cast<int>(key)) + " is none of KeyMode's values"};
+  const FilterMode filter = s.query.filter;
+  if (filter != FilterMode::kVoidedFeatures && filter != FilterMode::kNone)
+    return {ErrorCode::kInvalidSettings,
+            "query.filter " + std::to_string(static_cast<int>(filter)) + " is none of FilterMode's values"};
   const double a = s.query.manifold_angle_deg;
   if (!(a >= 0.0 && a < 90.0))
     return {ErrorCode::kInvalidSettings, "manifold_angle_deg must be in [0, 90), got " + describeValue(a)};

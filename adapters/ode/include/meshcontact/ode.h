@@ -118,8 +118,10 @@ struct Settings {
 /// cannot read a collider back, so there is no uninstall: dCloseODE() then
 /// dInitODE2() restores ODE's own colliders. Also sets the settings used by
 /// the triangle filter and collideWithGroup. `installed` (optional) receives
-/// the mask actually installed. Errors: kInvalidSettings (bad contact
-/// distance or manifold angle, unknown bits in `shapes`).
+/// the mask actually installed. Errors: kInvalidSettings (a contact
+/// distance that is negative, not finite or beyond 1e50, a bad manifold
+/// angle, a key or filter mode none of its enum's, unknown bits in
+/// `shapes`).
 Status installColliders(const Settings& settings = Settings(), unsigned* installed = nullptr);
 
 /// Sets the settings without installing colliders (for the triangle filter
@@ -200,7 +202,11 @@ void leaveGroup(dGeomID trimesh);
 /// piece): g1 = shape, g2 = the trimesh piece holding the triangle, normal
 /// from the mesh toward the shape (into g1), side1 = -1, side2 = triangle
 /// index. Budget and selection as above. Returns the number written; errors
-/// are reported (see "Errors") and give 0.
+/// are reported (see "Errors") and give 0, among them the arguments dCollide
+/// would have checked: a null shape, contacts or trimesh, no trimesh, skip
+/// below sizeof(dContactGeom), a trimesh listed twice. The frame of the
+/// query is trimeshes[0]'s, and ties between pieces go to the one listed
+/// first: keep the list in one order for repeatable results.
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts,
                      int skip);
 
