@@ -222,9 +222,10 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
 /// gatherCandidates selection less the triangles outside that ball, see
 /// model.cpp), with its vertices mapped by `to_query` (bitwise copies when
 /// it is the identity),
-/// mesh index `mesh_index`, keys = the corners' vertex indices (for the
-/// filter's position matching, KeyMode::kVertexPosition on index keys, or
-/// assignPositionKeysFromIndices). Degenerate triangles are kept: the
+/// mesh index `mesh_index`, keys = the corners' vertex indices (the
+/// callers run the filter with KeyMode::kVertexPosition on them, which
+/// matches positions too; the broadphase first puts the object's number in
+/// the high half). Degenerate triangles are kept: the
 /// narrowphases and passesThrough() reject them. Errors: kIndexOutOfRange.
 /// Called on each candidate as the walk finds it; returning true stops the
 /// walk (collision checking stops at the first triangle in contact).
