@@ -599,6 +599,61 @@ TEST(OdeConventions, CollideWithGroupRefusesBadArguments) {
   dGeomDestroy(sphere);
 }
 
+// A trimesh whose data was never built has no triangles (ODE's own build
+// refuses to make such data): a body would fall through it. Each query that
+// names it is a kEmptyMesh error; a group member without triangles adds
+// nothing to its neighbours' queries, which stay clean.
+TEST(OdeConventions, TrimeshWithoutTrianglesIsAnError) {
+  Session session;
+  std::vector<Status> seen;
+  ode::Settings settings;
+  settings.on_error = &recordError;
+  settings.user_data = &seen;
+  ASSERT_TRUE(ode::installColliders(settings).isOk());
+  OdeMesh floor(scenes::flatFloor(4, 4, 0.5, 2));
+  dTriMeshDataID unbuilt_data = dGeomTriMeshDataCreate();
+  dGeomID unbuilt = dCreateTriMesh(nullptr, unbuilt_data, nullptr, nullptr, nullptr);
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  dGeomSetPosition(sphere, 1.0, 1.0, 0.1);
+  dContactGeom c[8];
+  const int skip = sizeof(dContactGeom);
+  ode::resetStatistics();
+
+  // dCollide, in both orders.
+  EXPECT_EQ(dCollide(unbuilt, sphere, 8, c, skip), 0);
+  EXPECT_EQ(dCollide(sphere, unbuilt, 8, c, skip), 0);
+  ASSERT_EQ(seen.size(), 2u);
+  for (const Status& s : seen) EXPECT_EQ(s.code(), ErrorCode::kEmptyMesh) << s.message();
+  EXPECT_NE(ode::lastError().find("no triangles"), std::string::npos) << ode::lastError();
+  EXPECT_EQ(ode::statistics().errors, 2u);
+
+  // Listed to collideWithGroup (its AABB, whatever ODE makes of no
+  // triangles, is made to overlap the sphere's by its position).
+  dGeomSetPosition(unbuilt, 1.0, 1.0, 0.1);
+  const dGeomID list[] = {floor.geom, unbuilt};
+  EXPECT_EQ(ode::collideWithGroup(sphere, list, 2, 8, c, skip), 0);
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[2].code(), ErrorCode::kEmptyMesh) << seen[2].message();
+
+  // In a group: the floor's pairs are unaffected, the empty member's fail.
+  const int alone = dCollide(floor.geom, sphere, 8, c, skip);
+  ASSERT_GT(alone, 0);
+  const dGeomID members[] = {floor.geom, unbuilt};
+  ASSERT_TRUE(ode::makeGroup(members, 2).isOk());
+  EXPECT_EQ(dCollide(floor.geom, sphere, 8, c, skip), alone);
+  EXPECT_EQ(seen.size(), 3u);
+  EXPECT_EQ(dCollide(unbuilt, sphere, 8, c, skip), 0);
+  ASSERT_EQ(seen.size(), 4u);
+  EXPECT_EQ(seen[3].code(), ErrorCode::kEmptyMesh) << seen[3].message();
+  EXPECT_EQ(ode::statistics().errors, 4u);
+  ode::leaveGroup(unbuilt);
+  ode::leaveGroup(floor.geom);
+
+  dGeomDestroy(sphere);
+  dGeomDestroy(unbuilt);
+  ode::destroyTriMeshData(unbuilt_data);
+}
+
 // A shape or trimesh pose with NaN or Inf in it is an error (counted, and
 // in lastError()), never a contact: the sphere's rotation included, which
 // its query does not read. So is a trimesh rotation that is not orthonormal

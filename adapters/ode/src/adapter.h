@@ -34,7 +34,7 @@ inline std::string describeValue(double x) {
 struct MeshEntry {
   TriangleMesh mesh;
   int ode_triangle_count = 0;  // dGeomTriMeshGetTriangleCount at build time
-  bool empty = false;          // no triangle: no contact, not an error
+  bool empty = false;          // no triangle: an error where it is queried (pair_query.cpp)
 };
 
 /// The arrays a buildTriMeshData*() call gave ODE.
@@ -198,7 +198,9 @@ Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out);
 ///   order, in the frame of the group's first member;
 /// - otherwise the trimesh alone, in its own frame.
 /// Fills ctx.instances / instance_geoms / frame and returns in `own`
-/// the index of `trimesh` among the instances.
+/// the index of `trimesh` among the instances. Errors: meshFor's, and
+/// kEmptyMesh for a `trimesh` whose data has no triangles (a member without
+/// any is left out).
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
                        std::uint32_t& own);
 

@@ -73,7 +73,6 @@ int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* con
     detail::report(s, trimesh, shape);
     return 0;
   }
-  if (own == UINT32_MAX) return 0;  // empty trimesh
   keepInstance(ctx.contacts, own);
   ctx.counters.addContactsFound(ctx.contacts.size());
   detail::selectContacts(ctx.contacts, budget, ctx.chosen, ctx.min_distance2);

@@ -141,11 +141,20 @@ Pose relativePose(const Pose& frame, const Pose& member) {
   return frame.inverse() * member;
 }
 
-Status addInstance(dGeomID geom, const Pose& frame, ThreadContext& ctx) {
+// `asked`: the trimesh the caller named (dCollide's, or one listed to
+// collideWithGroup). Its data without triangles is an error: ODE's own build
+// refuses to make such data (it asserts), so it is data that was never built,
+// and a body would fall through it without a word. Another member of the
+// asked trimesh's group adds nothing; its own pairs report it.
+Status addInstance(dGeomID geom, const Pose& frame, bool asked, ThreadContext& ctx) {
   const MeshEntry* entry = nullptr;
   Status s = meshFor(geom, ctx, entry);  // held by ctx.view through the query
   if (!s) return s;
-  if (entry->empty) return Status::ok();
+  if (entry->empty) {
+    if (!asked) return Status::ok();
+    return {ErrorCode::kEmptyMesh,
+            "trimesh data has no triangles (was dGeomTriMeshDataBuild* or buildTriMeshData* called on it?)"};
+  }
   ctx.instances.push_back({&entry->mesh, relativePose(frame, geomPose(geom))});
   ctx.instance_geoms.push_back(geom);
   return Status::ok();
@@ -166,9 +175,9 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   own = UINT32_MAX;
   if (!group) {
     ctx.frame = geomPose(trimesh);
-    Status s = addInstance(trimesh, ctx.frame, ctx);  // same pose: the exact identity
+    Status s = addInstance(trimesh, ctx.frame, true, ctx);  // same pose: the exact identity
     if (!s) return s;
-    if (!ctx.instances.empty()) own = 0;
+    own = 0;
     return Status::ok();
   }
   // The same members, order and frame whichever member is asked, so every
@@ -181,7 +190,7 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
     dReal box[6];
     dGeomGetAABB(m, box);
     if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
-    Status s = addInstance(m, ctx.frame, ctx);
+    Status s = addInstance(m, ctx.frame, m == trimesh, ctx);
     if (!s) return s;
     if (m == trimesh && !ctx.instances.empty() && ctx.instance_geoms.back() == m)
       own = static_cast<std::uint32_t>(ctx.instances.size() - 1);
@@ -211,7 +220,7 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
     dReal box[6];
     dGeomGetAABB(trimeshes[i], box);
     if (!aabbOverlap(shape_box, box, settings.contact_distance)) continue;
-    Status s = addInstance(trimeshes[i], ctx.frame, ctx);
+    Status s = addInstance(trimeshes[i], ctx.frame, true, ctx);
     if (!s) return {s.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + s.message()};
   }
   return Status::ok();

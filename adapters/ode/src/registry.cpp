@@ -180,7 +180,9 @@ Status buildEntry(dTriMeshDataID data, const Arrays* arrays, std::shared_ptr<Mes
     if (!s) return s;
   }
   if (indices.empty()) {
-    entry->empty = true;  // a trimesh without triangles touches nothing
+    // Cached as it is (ODE's count stays 0 until the data is built): each
+    // query naming this trimesh reports kEmptyMesh (pair_query.cpp).
+    entry->empty = true;
   } else {
     Status s = entry->mesh.build(vertices, indices);
     if (!s) return {s.code(), "trimesh data: " + s.message()};

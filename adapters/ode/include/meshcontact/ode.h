@@ -71,9 +71,11 @@
 // install before collisions start.
 //
 // Errors: no collider can return an error to ODE. A failed query (a NaN pose,
-// a convex geom that was never registered, ...) produces no contact and is
-// reported: counted in statistics(), its message kept in lastError(), and
-// passed to Settings::on_error when set. Nothing is printed.
+// a convex geom that was never registered, a trimesh whose data was never
+// built (kEmptyMesh), ...) produces no contact and is reported: counted in
+// statistics(), its message kept in lastError(), and passed to
+// Settings::on_error when set. Nothing is printed. (A group member without
+// triangles adds none to its neighbours' queries: only its own pairs report.)
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
