@@ -268,8 +268,10 @@ Status entryFor(dTriMeshDataID data, int count, std::shared_ptr<const MeshEntry>
   Registry& r = Registry::get();
   Arrays arrays;
   bool registered = false;
+  std::uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(r.mutex);
+    generation = r.generation.load(std::memory_order_relaxed);  // bumped under this lock
     auto it = r.meshes.find(data);
     if (it != r.meshes.end() && it->second->ode_triangle_count == count) {
       out = it->second;
@@ -288,12 +290,16 @@ Status entryFor(dTriMeshDataID data, int count, std::shared_ptr<const MeshEntry>
     }
   }
   // Built outside the lock: two threads may both build the same data once;
-  // the results are identical and the second insert wins.
+  // the results are identical and the second insert wins. An invalidation
+  // (updateTriMeshData, forget, clearAll, ...) during the build may have
+  // made what it read stale: then the entry serves this query, whose
+  // caller started it before the change, and is not cached (the next query
+  // builds again) rather than outliving the invalidation.
   std::shared_ptr<MeshEntry> entry;
   Status s = buildEntry(data, registered ? &arrays : nullptr, entry);
   if (!s) return s;
   std::lock_guard<std::mutex> lock(r.mutex);
-  r.meshes[data] = entry;
+  if (r.generation.load(std::memory_order_relaxed) == generation) r.meshes[data] = entry;
   out = std::move(entry);
   return Status::ok();
 }
