@@ -524,6 +524,47 @@ void recordError(const Status& status, dGeomID, dGeomID, void* user) {
   static_cast<std::vector<Status>*>(user)->push_back(status);
 }
 
+// The triangle filter runs the query at a collision's first triangle and
+// reuses it for the others: a failed query is reported once, not once per
+// triangle ODE's midphase found, and ODE's collider then runs unfiltered.
+TEST(OdeConventions, TriangleFilterReportsAFailedQueryOnce) {
+  Session session;  // native colliders
+  std::vector<Status> seen;
+  ode::Settings settings;
+  settings.on_error = &recordError;
+  settings.user_data = &seen;
+  ASSERT_TRUE(ode::setSettings(settings).isOk());
+  OdeMesh om(scenes::flatFloor(8, 8, 0.5, 17));
+  ASSERT_TRUE(ode::attachTriangleFilter(om.geom).isOk());
+  // A trimesh rotation scaled by 1.001: not a rotation (|R^T R - I| = 2e-3,
+  // the tolerance is 1e-9), so the query fails (kInvalidPose); ODE's own
+  // collider takes it as it is.
+  dMatrix3 scaled = {1.001, 0, 0, 0, 0, 1.001, 0, 0, 0, 0, 1.001, 0};
+  dGeomSetRotation(om.geom, scaled);
+  dGeomID sphere = dCreateSphere(nullptr, 0.6);
+  dGeomSetPosition(sphere, 2.0, 2.0, 0.2);
+  std::vector<dContactGeom> c(64);
+  const int skip = sizeof(dContactGeom);
+  const int unfiltered = dCollide(om.geom, sphere, 64, c.data(), skip);
+  ASSERT_GT(unfiltered, 1) << "ODE must call the filter for several triangles";
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].code(), ErrorCode::kInvalidPose) << seen[0].message();
+  // Nothing changed: the same failed query, not run (nor reported) again.
+  EXPECT_EQ(dCollide(om.geom, sphere, 64, c.data(), skip), unfiltered);
+  EXPECT_EQ(seen.size(), 1u);
+  // The sphere moved: a new query, which fails once more.
+  dGeomSetPosition(sphere, 2.1, 2.0, 0.2);
+  EXPECT_GT(dCollide(om.geom, sphere, 64, c.data(), skip), 1);
+  EXPECT_EQ(seen.size(), 2u);
+  // A valid rotation again: filtered contacts, no new error.
+  dMatrix3 identity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  dGeomSetRotation(om.geom, identity);
+  EXPECT_GT(dCollide(om.geom, sphere, 64, c.data(), skip), 0);
+  EXPECT_EQ(seen.size(), 2u);
+  ode::detachTriangleFilter(om.geom);
+  dGeomDestroy(sphere);
+}
+
 // A failed query gives no contact, is counted, and reaches the handler.
 TEST(OdeConventions, ErrorsAreReportedNotPrinted) {
   Session session;

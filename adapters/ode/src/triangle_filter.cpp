@@ -21,6 +21,7 @@
 #include "adapter.h"
 
 #include <algorithm>
+#include <cstring>
 
 namespace meshcontact::ode {
 namespace {
@@ -38,6 +39,7 @@ struct Memo {
   dTriMeshDataID data = nullptr;
   std::vector<dGeomID> members;    // the trimesh geoms the query gathered
   std::vector<Pose> member_poses;  // and their poses then
+  bool described = false;          // describeShape succeeded (else `params` is unset)
   detail::ShapeQuery params;       // parameters only (pose unused)
   std::vector<std::uint32_t> rejected;  // sorted triangle indices of `trimesh`
 };
@@ -47,7 +49,12 @@ Memo& threadMemo() {
   return memo;
 }
 
-bool samePose(const Pose& a, const Pose& b) { return a.rotation == b.rotation && a.translation == b.translation; }
+// Bitwise: equal bits are the same query, and a NaN pose (a failed query)
+// equals itself, so that its error is reported once, not at every triangle.
+bool samePose(const Pose& a, const Pose& b) {
+  return std::memcmp(a.rotation.data(), b.rotation.data(), 9 * sizeof(double)) == 0 &&
+         std::memcmp(a.translation.data(), b.translation.data(), 3 * sizeof(double)) == 0;
+}
 
 bool sameParams(const detail::ShapeQuery& a, const detail::ShapeQuery& b) {
   return a.kind == b.kind && a.radius == b.radius && a.half_length == b.half_length &&
@@ -60,7 +67,8 @@ bool memoHolds(const Memo& m, dGeomID trimesh, dGeomID shape) {
   if (!samePose(m.trimesh_pose, detail::geomPose(trimesh)) || !samePose(m.shape_pose, detail::geomPose(shape)))
     return false;
   detail::ShapeQuery now;
-  if (!detail::describeShape(shape, detail::threadContext(), now) || !sameParams(now, m.params)) return false;
+  const bool described = static_cast<bool>(detail::describeShape(shape, detail::threadContext(), now));
+  if (described != m.described || (described && !sameParams(now, m.params))) return false;
   // Group members (a moved member changes the query); the member list itself
   // is covered by the generation.
   for (std::size_t i = 0; i < m.members.size(); ++i)
@@ -80,6 +88,7 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   m.rejected.clear();
   m.members.clear();
   m.member_poses.clear();
+  m.described = false;
   if (detail::shapeBit(dGeomGetClass(shape)) == 0) {
     m.pass_all = true;  // rays, planes' partners, trimesh-trimesh: not ours to filter
     return;
@@ -92,6 +101,20 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   Status s = detail::gatherInstances(trimesh, shape, settings, ctx, own);
   if (s) s = detail::shapeInFrame(shape, ctx);
   if (s) s = detail::runShapeQuery(settings, ctx);
+  // The members gathered (all of them, unless gathering failed) and the
+  // shape's parameters: the memo's inputs, for a failed query too, whose
+  // error is then reported once for the collision, not once per triangle.
+  for (dGeomID g : ctx.instance_geoms) {
+    m.members.push_back(g);
+    m.member_poses.push_back(detail::geomPose(g));
+  }
+  if (s) {
+    m.described = true;
+    m.params = ctx.shape;
+  } else {
+    m.described = static_cast<bool>(detail::describeShape(shape, ctx, m.params));
+  }
+  m.params.pose = Pose();
   if (!s) {
     // Reported, and ODE's collider runs unfiltered: a failed filter must not
     // silently remove the ground.
@@ -99,12 +122,6 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
     m.pass_all = true;
     return;
   }
-  for (dGeomID g : ctx.instance_geoms) {
-    m.members.push_back(g);
-    m.member_poses.push_back(detail::geomPose(g));
-  }
-  m.params = ctx.shape;
-  m.params.pose = Pose();
   // The filter's verdicts (not the manifold reduction's survivors).
   std::uint64_t contacts = 0;
   for (const TraceEntry& e : ctx.trace) {

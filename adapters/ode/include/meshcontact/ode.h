@@ -229,7 +229,9 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
 /// not the edge's). Replaces any callback the geom had. Shapes outside
 /// kAllShapes (rays, other trimeshes) see every triangle. The result for a
 /// pair is computed once per pose and reused for the other triangles of the
-/// same collision.
+/// same collision, and for later collisions while nothing it depends on
+/// changed. A query that fails is reported once (see "Errors") and leaves
+/// every triangle to ODE's collider until an input changes.
 /// Not useful together with installColliders for the same shapes: the
 /// override ignores trimesh callbacks.
 /// Errors: kInvalidSettings (not a trimesh geom).
