@@ -13,6 +13,7 @@
 #include <meshcontact/shapes.h>
 
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <memory>
@@ -561,7 +562,84 @@ TEST(OdeConventions, TriangleFilterReportsAFailedQueryOnce) {
   dGeomSetRotation(om.geom, identity);
   EXPECT_GT(dCollide(om.geom, sphere, 64, c.data(), skip), 0);
   EXPECT_EQ(seen.size(), 2u);
+  // A sphere whose own rotation holds a NaN (a body state gone bad; ODE's
+  // sphere collider never reads it): the shape itself cannot be described,
+  // and the NaN pose must still match itself for the memo to hold.
+  dMatrix3 nan_rotation = {std::nan(""), 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  dGeomSetRotation(sphere, nan_rotation);
+  EXPECT_GT(dCollide(om.geom, sphere, 64, c.data(), skip), 1);
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[2].code(), ErrorCode::kInvalidPose) << seen[2].message();
   ode::detachTriangleFilter(om.geom);
+  dGeomDestroy(sphere);
+}
+
+// A failed query's memo covers every member of the group, not only those
+// the query gathered: here the group's frame (its first member, far from
+// the sphere) has a rotation that is not one, and fixing it must end the
+// failure at the next collision, though nothing near the sphere moved.
+TEST(OdeConventions, TriangleFilterFailureFollowsTheWholeGroup) {
+  Session session;  // native colliders
+  std::vector<Status> seen;
+  ode::Settings settings;
+  settings.on_error = &recordError;
+  settings.user_data = &seen;
+  ASSERT_TRUE(ode::setSettings(settings).isOk());
+  OdeMesh frame(scenes::flatFloor(8, 8, 0.5, 17)), tile(scenes::flatFloor(8, 8, 0.5, 18));
+  dGeomSetPosition(tile.geom, 10.0, 0.0, 0.0);
+  const dGeomID members[] = {frame.geom, tile.geom};
+  ASSERT_TRUE(ode::makeGroup(members, 2).isOk());
+  ASSERT_TRUE(ode::attachTriangleFilter(tile.geom).isOk());
+  dMatrix3 scaled = {1.001, 0, 0, 0, 0, 1.001, 0, 0, 0, 0, 1.001, 0};
+  dGeomSetRotation(frame.geom, scaled);
+  dGeomID sphere = dCreateSphere(nullptr, 0.6);
+  dGeomSetPosition(sphere, 12.0, 2.0, 0.55);
+  std::vector<dContactGeom> c(64);
+  const int skip = sizeof(dContactGeom);
+  ode::resetStatistics();
+  const int unfiltered = dCollide(tile.geom, sphere, 64, c.data(), skip);
+  EXPECT_GT(unfiltered, 1);
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].code(), ErrorCode::kInvalidPose) << seen[0].message();
+  EXPECT_EQ(dCollide(tile.geom, sphere, 64, c.data(), skip), unfiltered);  // nothing changed
+  EXPECT_EQ(ode::statistics().pair_queries, 1u);
+  dMatrix3 identity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  dGeomSetRotation(frame.geom, identity);
+  const int filtered = dCollide(tile.geom, sphere, 64, c.data(), skip);
+  EXPECT_EQ(ode::statistics().pair_queries, 2u) << "the fixed frame must end the failed memo";
+  EXPECT_EQ(seen.size(), 1u);
+  EXPECT_LT(filtered, unfiltered);
+  ode::detachTriangleFilter(tile.geom);
+  ode::leaveGroup(frame.geom);
+  ode::leaveGroup(tile.geom);
+  dGeomDestroy(sphere);
+}
+
+// The triangle filter runs one query per collision, whatever shapes the
+// thread described before (a description left over from a box once made
+// every later sphere's memo miss: one query per triangle ODE found).
+TEST(OdeConventions, TriangleFilterRunsOneQueryPerCollision) {
+  Session session;  // native colliders
+  ASSERT_TRUE(ode::setSettings(ode::Settings()).isOk());
+  OdeMesh om(scenes::flatFloor(8, 8, 0.5, 17));
+  ASSERT_TRUE(ode::attachTriangleFilter(om.geom).isOk());
+  dGeomID box = dCreateBox(nullptr, 1.2, 0.9, 0.6);
+  dGeomSetPosition(box, 2.0, 2.0, 0.28);
+  dGeomID sphere = dCreateSphere(nullptr, 0.6);
+  dGeomSetPosition(sphere, 2.0, 2.0, 0.55);
+  std::vector<dContactGeom> c(64);
+  const int skip = sizeof(dContactGeom);
+  for (dGeomID shape : {box, sphere, box, sphere}) {
+    ode::detachTriangleFilter(om.geom);
+    EXPECT_GT(dCollide(om.geom, shape, 64, c.data(), skip), 1) << "ODE must find several triangles (each a callback)";
+    ASSERT_TRUE(ode::attachTriangleFilter(om.geom).isOk());
+    ode::resetStatistics();
+    EXPECT_GT(dCollide(om.geom, shape, 64, c.data(), skip), 0);
+    EXPECT_EQ(ode::statistics().pair_queries, 1u) << (shape == box ? "box" : "sphere");
+    EXPECT_EQ(ode::statistics().errors, 0u) << ode::lastError();
+  }
+  ode::detachTriangleFilter(om.geom);
+  dGeomDestroy(box);
   dGeomDestroy(sphere);
 }
 
@@ -668,17 +746,21 @@ TEST(OdeConventions, TrimeshWithoutTrianglesIsAnError) {
   EXPECT_NE(ode::lastError().find("no triangles"), std::string::npos) << ode::lastError();
   EXPECT_EQ(ode::statistics().errors, 2u);
 
-  // Listed to collideWithGroup (its AABB, whatever ODE makes of no
-  // triangles, is made to overlap the sphere's by its position).
-  dGeomSetPosition(unbuilt, 1.0, 1.0, 0.1);
-  const dGeomID list[] = {floor.geom, unbuilt};
-  EXPECT_EQ(ode::collideWithGroup(sphere, list, 2, 8, c, skip), 0);
-  ASSERT_EQ(seen.size(), 3u);
-  EXPECT_EQ(seen[2].code(), ErrorCode::kEmptyMesh) << seen[2].message();
-
-  // In a group: the floor's pairs are unaffected, the empty member's fail.
+  // Listed to collideWithGroup: reported, and the other pieces still
+  // collide (as the floor alone does). Decided before the piece's AABB,
+  // which ODE computes from bounds it never set for data it never built.
   const int alone = dCollide(floor.geom, sphere, 8, c, skip);
   ASSERT_GT(alone, 0);
+  dContactGeom grouped[8];
+  const dGeomID list[] = {floor.geom, unbuilt};
+  EXPECT_EQ(ode::collideWithGroup(sphere, list, 2, 8, grouped, skip), alone);
+  ASSERT_EQ(seen.size(), 3u);
+  EXPECT_EQ(seen[2].code(), ErrorCode::kEmptyMesh) << seen[2].message();
+  EXPECT_NE(seen[2].message().find("trimesh 1"), std::string::npos) << seen[2].message();
+  // prepare() reports it too.
+  EXPECT_EQ(ode::prepare(unbuilt).code(), ErrorCode::kEmptyMesh);
+
+  // In a group: the floor's pairs are unaffected, the empty member's fail.
   const dGeomID members[] = {floor.geom, unbuilt};
   ASSERT_TRUE(ode::makeGroup(members, 2).isOk());
   EXPECT_EQ(dCollide(floor.geom, sphere, 8, c, skip), alone);

@@ -79,6 +79,14 @@ class Registry {
   /// without changing a pose (invalidation, groups, hulls, settings): each
   /// thread's RegistryView and the triangle filter's memo compare it.
   std::atomic<std::uint64_t> generation{1};
+  /// When each data's cached BVH was last made stale (registerArrays,
+  /// invalidate, forget: invalidated[data] = ++invalidations; clearAll:
+  /// cleared_at), so that a build that raced such a change is not cached
+  /// (entryFor). Per data, unlike `generation`: changes to other data,
+  /// settings, groups or hulls during a build do not matter to it. Guarded
+  /// by mutex.
+  std::uint64_t invalidations = 0, cleared_at = 0;
+  std::unordered_map<dTriMeshDataID, std::uint64_t> invalidated;
 
   /// The per-query counts are each thread's own (ThreadCounters): a count
   /// every thread incremented here cost each dCollide a cache line passed
@@ -141,6 +149,14 @@ void report(const Status& status, dGeomID trimesh, dGeomID shape);
 /// The cached BVH of this trimesh geom's data (built on first use).
 Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out);
 
+/// kEmptyMesh for a trimesh whose data has no triangles (MeshEntry::empty).
+Status emptyMeshError();
+
+/// Whether `geom` is a trimesh whose data ODE holds no triangles for (data
+/// never built). Read before its AABB, which ODE then computes from
+/// uninitialised bounds.
+bool hasNoTriangles(dGeomID geom);
+
 /// A geom's pose in the world (its final pose, including a body offset).
 Pose geomPose(dGeomID geom);
 
@@ -191,6 +207,10 @@ const Settings& refreshView(ThreadContext& ctx);
 /// The cached BVH of this trimesh geom's data, through ctx.view (the
 /// registry, under its lock, on the view's first use of the data).
 Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out);
+
+/// The group of this trimesh geom at ctx.view's generation (null: none).
+/// Held by ctx.view until its next refresh.
+const Group* groupOf(dGeomID trimesh, ThreadContext& ctx);
 
 /// Which trimesh geoms a pair query gathers, and in which frame.
 /// - a grouped trimesh: every member whose AABB touches the shape's (inflated

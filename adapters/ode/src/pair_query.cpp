@@ -54,7 +54,10 @@ const Value* viewLookup(std::vector<std::pair<Key, std::shared_ptr<const Value>>
 
 Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
   const int cls = dGeomGetClass(shape);
-  out.hull = nullptr;
+  // Every field afresh: the fields another kind uses stay at their defaults,
+  // so that two descriptions of one shape compare equal field by field (the
+  // triangle filter's memo) whatever `out` described before.
+  out = ShapeQuery();
   out.pose = geomPose(shape);
   switch (cls) {
     case dSphereClass:
@@ -141,20 +144,16 @@ Pose relativePose(const Pose& frame, const Pose& member) {
   return frame.inverse() * member;
 }
 
-// `asked`: the trimesh the caller named (dCollide's, or one listed to
-// collideWithGroup). Its data without triangles is an error: ODE's own build
-// refuses to make such data (it asserts), so it is data that was never built,
-// and a body would fall through it without a word. Another member of the
-// asked trimesh's group adds nothing; its own pairs report it.
+// `asked`: the trimesh dCollide named. Its data without triangles is an
+// error: it is data that was never built (Debian's ODE asserts on building
+// it empty, and buildTriMeshData* refuses to), and a body would fall through
+// it without a word. Another member of its group adds nothing; its own pairs
+// report it.
 Status addInstance(dGeomID geom, const Pose& frame, bool asked, ThreadContext& ctx) {
   const MeshEntry* entry = nullptr;
   Status s = meshFor(geom, ctx, entry);  // held by ctx.view through the query
   if (!s) return s;
-  if (entry->empty) {
-    if (!asked) return Status::ok();
-    return {ErrorCode::kEmptyMesh,
-            "trimesh data has no triangles (was dGeomTriMeshDataBuild* or buildTriMeshData* called on it?)"};
-  }
+  if (entry->empty) return asked ? emptyMeshError() : Status::ok();
   ctx.instances.push_back({&entry->mesh, relativePose(frame, geomPose(geom))});
   ctx.instance_geoms.push_back(geom);
   return Status::ok();
@@ -167,11 +166,15 @@ void clearInstances(ThreadContext& ctx) {
 
 }  // namespace
 
+const Group* groupOf(dGeomID trimesh, ThreadContext& ctx) {
+  // No group registered at the view's generation: no lookup at all.
+  return ctx.view.any_group ? viewLookup(ctx.view.groups, Registry::get().groups, trimesh) : nullptr;
+}
+
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
                        std::uint32_t& own) {
   clearInstances(ctx);
-  // No group registered at the view's generation: no lookup at all.
-  const Group* group = ctx.view.any_group ? viewLookup(ctx.view.groups, Registry::get().groups, trimesh) : nullptr;
+  const Group* group = groupOf(trimesh, ctx);
   own = UINT32_MAX;
   if (!group) {
     ctx.frame = geomPose(trimesh);
@@ -187,6 +190,7 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
   for (dGeomID m : group->members) {
+    if (m != trimesh && hasNoTriangles(m)) continue;
     dReal box[6];
     dGeomGetAABB(m, box);
     if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
@@ -217,10 +221,19 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
   for (int i = 0; i < count; ++i) {
+    if (hasNoTriangles(trimeshes[i])) {
+      // Reported, and the other pieces still collide: this one has nothing
+      // to add, and failing the whole call would drop the floor under a
+      // body because of a placeholder.
+      const Status empty = emptyMeshError();
+      report({empty.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + empty.message()}, trimeshes[i],
+             shape);
+      continue;
+    }
     dReal box[6];
     dGeomGetAABB(trimeshes[i], box);
     if (!aabbOverlap(shape_box, box, settings.contact_distance)) continue;
-    Status s = addInstance(trimeshes[i], ctx.frame, true, ctx);
+    Status s = addInstance(trimeshes[i], ctx.frame, false, ctx);
     if (!s) return {s.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + s.message()};
   }
   return Status::ok();

@@ -268,10 +268,10 @@ Status entryFor(dTriMeshDataID data, int count, std::shared_ptr<const MeshEntry>
   Registry& r = Registry::get();
   Arrays arrays;
   bool registered = false;
-  std::uint64_t generation = 0;
+  std::uint64_t started = 0;
   {
     std::lock_guard<std::mutex> lock(r.mutex);
-    generation = r.generation.load(std::memory_order_relaxed);  // bumped under this lock
+    started = r.invalidations;
     auto it = r.meshes.find(data);
     if (it != r.meshes.end() && it->second->ode_triangle_count == count) {
       out = it->second;
@@ -282,24 +282,29 @@ Status entryFor(dTriMeshDataID data, int count, std::shared_ptr<const MeshEntry>
       if (a->second.index_count / 3 == count) {
         arrays = a->second;
         registered = true;
-      } else {
+      } else if (count != 0) {
         // The data was rebuilt with ODE's own call since: the registered
-        // pointers may be stale, ODE's API is the truth now.
+        // pointers may be stale, ODE's API is the truth now. (A count of 0
+        // is data that ODE has not built yet: a buildTriMeshData* call
+        // registers the arrays just before ODE's build.)
         r.arrays.erase(a);
       }
     }
   }
   // Built outside the lock: two threads may both build the same data once;
   // the results are identical and the second insert wins. An invalidation
-  // (updateTriMeshData, forget, clearAll, ...) during the build may have
-  // made what it read stale: then the entry serves this query, whose
-  // caller started it before the change, and is not cached (the next query
-  // builds again) rather than outliving the invalidation.
+  // of this data (updateTriMeshData, a buildTriMeshData* call, forget,
+  // clearAll) during the build may have made what it read stale: then the
+  // entry serves this query, whose caller started it before the change, and
+  // is not cached (the next query builds again) rather than outliving the
+  // invalidation.
   std::shared_ptr<MeshEntry> entry;
   Status s = buildEntry(data, registered ? &arrays : nullptr, entry);
   if (!s) return s;
   std::lock_guard<std::mutex> lock(r.mutex);
-  if (r.generation.load(std::memory_order_relaxed) == generation) r.meshes[data] = entry;
+  const auto stamp = r.invalidated.find(data);
+  const bool stale = r.cleared_at > started || (stamp != r.invalidated.end() && stamp->second > started);
+  if (!stale) r.meshes[data] = entry;
   out = std::move(entry);
   return Status::ok();
 }
@@ -333,6 +338,17 @@ Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
   else
     ctx.view.meshes.emplace_back(data, std::move(entry));
   return Status::ok();
+}
+
+Status emptyMeshError() {
+  return {ErrorCode::kEmptyMesh,
+          "trimesh data has no triangles (was dGeomTriMeshDataBuild* or buildTriMeshData* called on it?)"};
+}
+
+bool hasNoTriangles(dGeomID geom) {
+  // Checked in this order: ODE's accessors assert on another class or no data.
+  return geom != nullptr && dGeomGetClass(geom) == dTriMeshClass && dGeomTriMeshGetData(geom) != nullptr &&
+         dGeomTriMeshGetTriangleCount(geom) == 0;
 }
 
 Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {
@@ -371,6 +387,7 @@ Status registerArrays(dTriMeshDataID data, const detail::Arrays& arrays) {
   std::lock_guard<std::mutex> lock(r.mutex);
   r.arrays[data] = arrays;
   r.meshes.erase(data);
+  r.invalidated[data] = ++r.invalidations;
   r.generation.fetch_add(1);
   return Status::ok();
 }
@@ -417,6 +434,7 @@ void invalidate(dTriMeshDataID data) {
   Registry& r = Registry::get();
   std::lock_guard<std::mutex> lock(r.mutex);
   r.meshes.erase(data);
+  r.invalidated[data] = ++r.invalidations;
   r.generation.fetch_add(1);
 }
 
@@ -430,6 +448,8 @@ void forget(dTriMeshDataID data) {
   std::lock_guard<std::mutex> lock(r.mutex);
   r.meshes.erase(data);
   r.arrays.erase(data);
+  // Kept, not erased: a build of this address still running must see it.
+  r.invalidated[data] = ++r.invalidations;
   r.generation.fetch_add(1);
 }
 
@@ -445,12 +465,17 @@ void clearAll() {
   r.arrays.clear();
   r.groups.clear();
   r.hulls.clear();
+  r.invalidated.clear();  // cleared_at covers every data
+  r.cleared_at = ++r.invalidations;
   r.generation.fetch_add(1);
 }
 
 Status prepare(dGeomID trimesh) {
   std::shared_ptr<const detail::MeshEntry> entry;
-  return detail::meshFor(trimesh, entry);
+  Status s = detail::meshFor(trimesh, entry);
+  if (!s) return s;
+  if (entry->empty) return detail::emptyMeshError();
+  return Status::ok();
 }
 
 Status registerConvex(dGeomID convex, const dReal* points, unsigned point_count) {

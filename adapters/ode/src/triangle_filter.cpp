@@ -37,8 +37,17 @@ struct Memo {
   std::uint64_t generation = 0;
   Pose trimesh_pose, shape_pose;
   dTriMeshDataID data = nullptr;
-  std::vector<dGeomID> members;    // the trimesh geoms the query gathered
-  std::vector<Pose> member_poses;  // and their poses then
+  // The trimesh geoms whose state the result depends on: those the query
+  // gathered; after a failure, every member of the trimesh's group (the
+  // frame's geom and a member that failed among them, which the gathering
+  // may not have reached). With their poses, data and triangle counts then.
+  struct Member {
+    dGeomID geom;
+    Pose pose;
+    dTriMeshDataID data;
+    int triangles;
+  };
+  std::vector<Member> members;
   bool described = false;          // describeShape succeeded (else `params` is unset)
   detail::ShapeQuery params;       // parameters only (pose unused)
   std::vector<std::uint32_t> rejected;  // sorted triangle indices of `trimesh`
@@ -56,6 +65,11 @@ bool samePose(const Pose& a, const Pose& b) {
          std::memcmp(a.translation.data(), b.translation.data(), 3 * sizeof(double)) == 0;
 }
 
+Memo::Member memberState(dGeomID g) {
+  const dTriMeshDataID data = dGeomTriMeshGetData(g);
+  return {g, detail::geomPose(g), data, data != nullptr ? dGeomTriMeshGetTriangleCount(g) : 0};
+}
+
 bool sameParams(const detail::ShapeQuery& a, const detail::ShapeQuery& b) {
   return a.kind == b.kind && a.radius == b.radius && a.half_length == b.half_length &&
          a.half_extents == b.half_extents && a.hull == b.hull;
@@ -69,10 +83,12 @@ bool memoHolds(const Memo& m, dGeomID trimesh, dGeomID shape) {
   detail::ShapeQuery now;
   const bool described = static_cast<bool>(detail::describeShape(shape, detail::threadContext(), now));
   if (described != m.described || (described && !sameParams(now, m.params))) return false;
-  // Group members (a moved member changes the query); the member list itself
-  // is covered by the generation.
-  for (std::size_t i = 0; i < m.members.size(); ++i)
-    if (!samePose(m.member_poses[i], detail::geomPose(m.members[i]))) return false;
+  // Group members (a moved or rebuilt member changes the query); the member
+  // list itself is covered by the generation.
+  for (const Memo::Member& was : m.members) {
+    const Memo::Member now = memberState(was.geom);
+    if (!samePose(was.pose, now.pose) || was.data != now.data || was.triangles != now.triangles) return false;
+  }
   return true;
 }
 
@@ -87,7 +103,6 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   m.data = dGeomTriMeshGetData(trimesh);
   m.rejected.clear();
   m.members.clear();
-  m.member_poses.clear();
   m.described = false;
   if (detail::shapeBit(dGeomGetClass(shape)) == 0) {
     m.pass_all = true;  // rays, planes' partners, trimesh-trimesh: not ours to filter
@@ -101,12 +116,14 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   Status s = detail::gatherInstances(trimesh, shape, settings, ctx, own);
   if (s) s = detail::shapeInFrame(shape, ctx);
   if (s) s = detail::runShapeQuery(settings, ctx);
-  // The members gathered (all of them, unless gathering failed) and the
-  // shape's parameters: the memo's inputs, for a failed query too, whose
-  // error is then reported once for the collision, not once per triangle.
-  for (dGeomID g : ctx.instance_geoms) {
-    m.members.push_back(g);
-    m.member_poses.push_back(detail::geomPose(g));
+  // The memo's inputs (see Memo::members) and the shape's parameters, for
+  // a failed query too, whose error is then reported once for the
+  // collision, not once per triangle.
+  const detail::Group* group = s ? nullptr : detail::groupOf(trimesh, ctx);
+  if (group) {
+    for (dGeomID g : group->members) m.members.push_back(memberState(g));
+  } else {
+    for (dGeomID g : ctx.instance_geoms) m.members.push_back(memberState(g));
   }
   if (s) {
     m.described = true;

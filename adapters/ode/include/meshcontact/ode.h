@@ -72,10 +72,12 @@
 //
 // Errors: no collider can return an error to ODE. A failed query (a NaN pose,
 // a convex geom that was never registered, a trimesh whose data was never
-// built (kEmptyMesh), ...) produces no contact and is reported: counted in
-// statistics(), its message kept in lastError(), and passed to
-// Settings::on_error when set. Nothing is printed. (A group member without
-// triangles adds none to its neighbours' queries: only its own pairs report.)
+// built (kEmptyMesh; the override and collideWithGroup: ODE's own colliders
+// never call the triangle filter for such a trimesh), ...) produces no
+// contact and is reported: counted in statistics(), its message kept in
+// lastError(), and passed to Settings::on_error when set. Nothing is
+// printed. (A group member without triangles adds none to its neighbours'
+// queries: only its own pairs report.)
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
@@ -165,7 +167,8 @@ void destroyTriMeshData(dTriMeshDataID data);
 /// dCloseODE()).
 void clearAll();
 /// Builds the cached BVH of this trimesh geom's data now (instead of during
-/// the first collision) and reports what the build found.
+/// the first collision) and reports what the build found: kEmptyMesh for
+/// data without triangles (never built).
 Status prepare(dGeomID trimesh);
 
 // --- Convex geoms -------------------------------------------------------------
@@ -206,9 +209,11 @@ void leaveGroup(dGeomID trimesh);
 /// index. Budget and selection as above. Returns the number written; errors
 /// are reported (see "Errors") and give 0, among them the arguments dCollide
 /// would have checked: a null shape, contacts or trimesh, no trimesh, skip
-/// below sizeof(dContactGeom), a trimesh listed twice. The frame of the
-/// query is trimeshes[0]'s, and ties between pieces go to the one listed
-/// first: keep the list in one order for repeatable results.
+/// below sizeof(dContactGeom), a trimesh listed twice. A listed trimesh
+/// whose data has no triangles is reported (kEmptyMesh) and left out; the
+/// others still collide. The frame of the query is trimeshes[0]'s, and ties
+/// between pieces go to the one listed first: keep the list in one order for
+/// repeatable results.
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts,
                      int skip);
 
@@ -229,9 +234,10 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
 /// not the edge's). Replaces any callback the geom had. Shapes outside
 /// kAllShapes (rays, other trimeshes) see every triangle. The result for a
 /// pair is computed once per pose and reused for the other triangles of the
-/// same collision, and for later collisions while nothing it depends on
-/// changed. A query that fails is reported once (see "Errors") and leaves
-/// every triangle to ODE's collider until an input changes.
+/// same collision (and for the next collision of the same pair on the
+/// thread while nothing it depends on changed). A query that fails is
+/// reported once for the collision, not once per triangle (see "Errors"),
+/// and leaves every triangle of it to ODE's collider.
 /// Not useful together with installColliders for the same shapes: the
 /// override ignores trimesh callbacks.
 /// Errors: kInvalidSettings (not a trimesh geom).
@@ -244,7 +250,8 @@ struct Statistics {
   std::uint64_t pair_queries = 0;       // collider / filter / group queries run
   std::uint64_t contacts_found = 0;     // contacts the core returned for the pair asked
   std::uint64_t contacts_returned = 0;  // written to ODE (the budget may cut)
-  std::uint64_t mesh_builds = 0;        // BVHs built for the cache
+  std::uint64_t mesh_builds = 0;        // BVHs built for the cache (one that raced an invalidation of its data is
+                                        // used once and not cached)
   std::uint64_t errors = 0;
 };
 Statistics statistics();
