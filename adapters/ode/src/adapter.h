@@ -153,8 +153,9 @@ Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out);
 Status emptyMeshError();
 
 /// Whether `geom` is a trimesh whose data ODE holds no triangles for (data
-/// never built). Read before its AABB, which ODE then computes from
-/// uninitialised bounds.
+/// never built). collideWithGroup reads it before a piece's AABB, which ODE
+/// then computes from uninitialised bounds, so that the piece is reported
+/// whatever they hold.
 bool hasNoTriangles(dGeomID geom);
 
 /// A geom's pose in the world (its final pose, including a body offset).

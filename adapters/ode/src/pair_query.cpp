@@ -190,7 +190,9 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
   for (dGeomID m : group->members) {
-    if (m != trimesh && hasNoTriangles(m)) continue;
+    // A member without triangles is skipped whichever way its AABB (which
+    // ODE computes from bounds it never set) goes: not tested for first,
+    // which would cost three ODE calls per member per query.
     dReal box[6];
     dGeomGetAABB(m, box);
     if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
