@@ -88,6 +88,9 @@ class Session {
     dRandSetSeed(0);
   }
   ~Session() {
+    // The adapter's settings are process-wide: a test's error handler and
+    // its user data (often a local vector) must not outlive the test.
+    static_cast<void>(ode::setSettings(ode::Settings()));  // the defaults: always accepted
     ode::clearAll();
     dCloseODE();
   }
