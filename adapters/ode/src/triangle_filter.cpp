@@ -38,9 +38,10 @@ struct Memo {
   Pose trimesh_pose, shape_pose;
   dTriMeshDataID data = nullptr;
   // The trimesh geoms whose state the result depends on: those the query
-  // gathered; after a failure, every member of the trimesh's group (the
-  // frame's geom and a member that failed among them, which the gathering
-  // may not have reached). With their poses, data and triangle counts then.
+  // gathered; after a failure, the trimesh itself, or every member of its
+  // group (the frame's geom and a member that failed among them, which the
+  // gathering may not have reached). With their poses, data and triangle
+  // counts then.
   struct Member {
     dGeomID geom;
     Pose pose;
@@ -119,11 +120,12 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   // The memo's inputs (see Memo::members) and the shape's parameters, for
   // a failed query too, whose error is then reported once for the
   // collision, not once per triangle.
-  const detail::Group* group = s ? nullptr : detail::groupOf(trimesh, ctx);
-  if (group) {
+  if (s) {
+    for (dGeomID g : ctx.instance_geoms) m.members.push_back(memberState(g));
+  } else if (const detail::Group* group = detail::groupOf(trimesh, ctx)) {
     for (dGeomID g : group->members) m.members.push_back(memberState(g));
   } else {
-    for (dGeomID g : ctx.instance_geoms) m.members.push_back(memberState(g));
+    m.members.push_back(memberState(trimesh));  // gathering may have failed on it
   }
   if (s) {
     m.described = true;
