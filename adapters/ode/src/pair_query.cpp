@@ -198,8 +198,7 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
     if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
     Status s = addInstance(m, ctx.frame, m == trimesh, ctx);
     if (!s) return s;
-    if (m == trimesh && !ctx.instances.empty() && ctx.instance_geoms.back() == m)
-      own = static_cast<std::uint32_t>(ctx.instances.size() - 1);
+    if (m == trimesh) own = static_cast<std::uint32_t>(ctx.instances.size() - 1);  // added, or an error above
   }
   return Status::ok();
 }

@@ -35,13 +35,13 @@ struct Memo {
   dGeomID trimesh = nullptr;
   dGeomID shape = nullptr;
   std::uint64_t generation = 0;
-  Pose trimesh_pose, shape_pose;
-  dTriMeshDataID data = nullptr;
-  // The trimesh geoms whose state the result depends on: those the query
-  // gathered; after a failure, the trimesh itself, or every member of its
-  // group (the frame's geom and a member that failed among them, which the
-  // gathering may not have reached). With their poses, data and triangle
-  // counts then.
+  Pose shape_pose;
+  // The trimesh geoms whose state the result depends on, `trimesh` always
+  // among them: those the query gathered; after a failure, the trimesh
+  // itself, or every member of its group (the frame's geom and a member that
+  // failed among them, which the gathering may not have reached). With their
+  // poses, data and triangle counts then. (None for a shape the filter
+  // passes whatever the trimesh: pass_all without a query.)
   struct Member {
     dGeomID geom;
     Pose pose;
@@ -77,15 +77,14 @@ bool sameParams(const detail::ShapeQuery& a, const detail::ShapeQuery& b) {
 }
 
 bool memoHolds(const Memo& m, dGeomID trimesh, dGeomID shape) {
-  if (!m.valid || m.trimesh != trimesh || m.shape != shape || m.data != dGeomTriMeshGetData(trimesh)) return false;
+  if (!m.valid || m.trimesh != trimesh || m.shape != shape) return false;
   if (m.generation != Registry::get().generation.load()) return false;
-  if (!samePose(m.trimesh_pose, detail::geomPose(trimesh)) || !samePose(m.shape_pose, detail::geomPose(shape)))
-    return false;
+  if (!samePose(m.shape_pose, detail::geomPose(shape))) return false;
   detail::ShapeQuery now;
   const bool described = static_cast<bool>(detail::describeShape(shape, detail::threadContext(), now));
   if (described != m.described || (described && !sameParams(now, m.params))) return false;
-  // Group members (a moved or rebuilt member changes the query); the member
-  // list itself is covered by the generation.
+  // The trimesh and the group members it gathered (a moved or rebuilt one
+  // changes the query); the member list itself is covered by the generation.
   for (const Memo::Member& was : m.members) {
     const Memo::Member now = memberState(was.geom);
     if (!samePose(was.pose, now.pose) || was.data != now.data || was.triangles != now.triangles) return false;
@@ -99,9 +98,7 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   m.trimesh = trimesh;
   m.shape = shape;
   m.generation = Registry::get().generation.load();
-  m.trimesh_pose = detail::geomPose(trimesh);
   m.shape_pose = detail::geomPose(shape);
-  m.data = dGeomTriMeshGetData(trimesh);
   m.rejected.clear();
   m.members.clear();
   m.described = false;
