@@ -23,12 +23,14 @@
 //  4. Edge / vertex region: normal = normalize(core point - triangle point)
 //     (the face normal when they coincide), depth r - d. Feature: where the
 //     triangle's closest point lies when separated; the triangle's support
-//     feature along the normal when penetrating (DESIGN.md §3). When the
-//     core's front piece over the face is also within reach, the points of
-//     3. ride along as the patch's face part, which the filter keeps
-//     whether or not it voids the edge / vertex: the core's part over this
-//     face is a face contact of its own (a capsule is a swept sphere, and
-//     each of those spheres has the face as its closest feature).
+//     feature along the normal when penetrating (DESIGN.md §3). A core
+//     running along the edge also gets the ends of that line contact (see
+//     operator()). When the core's front piece over the face is also within
+//     reach, the points of 3. ride along as the patch's face part, which
+//     the filter keeps whether or not it voids the edge / vertex: the
+//     core's part over this face is a face contact of its own (a capsule is
+//     a swept sphere, and each of those spheres has the face as its closest
+//     feature).
 #include "meshcontact/mesh.h"
 #include "meshcontact/shapes.h"
 #include "meshcontact/triangle.h"
@@ -79,6 +81,8 @@ struct CapsuleNarrowphase {
   double radius;
   double reach;    // radius + contact distance
   double scale;    // radius + half_length: the capsule's size, for tolerances
+  double cos_manifold;  // cos(settings.manifold_angle_deg): one contact plane (see the edge patch)
+  double coordinates;   // the core ends' largest |coordinate| (the edge planes' rounding)
 
   detail::PatchOutcome operator()(const CandidateTriangle& tri, detail::Patch& patch) const {
     using detail::PatchOutcome;
@@ -106,10 +110,33 @@ struct CapsuleNarrowphase {
     clipInterval(h0, h1, s0, s1);
     // The core's piece over the triangle, [q0, q1]: inside the three
     // inward-facing edge planes m_k = n x (v_k+1 - v_k) (counter-clockwise).
+    // A core end within rounding of an edge plane counts as on it (inside):
+    // a core lying over an edge (an internal diagonal under a capsule laid
+    // along it) has both ends' values at rounding noise of either sign, and
+    // clipping at their ratio would cut the piece at an arbitrary point, or
+    // away, on both triangles of the edge (one core end left unsupported).
+    // The noise bound: the ends are rounded on the scale of their
+    // coordinates, n and m within a few ulps, the dot products over
+    // |m| |p - v_k|; 2^-40 of |m|_1 (|p0 - v_k|_1 + |p1 - v_k|_1 + the
+    // coordinates) covers them, and is far below any distance that matters
+    // to a contact. One bound serves the three edges: every component of an
+    // edge is below 4 scale (scaled_edges.h), so |m|_1 < 21 scale and
+    // |v_k - v_0|_1 < 6 scale.
+    // Computed once per triangle, and only for one whose edge planes cut
+    // the core (the tolerance decides nothing where both ends are inside).
+    double noise = -1.0;
     double q0 = 0.0, q1 = 1.0;
     for (int k = 0; k < 3 && q0 <= q1; ++k) {
       const Vec3 m = n.cross(v[(k + 1) % 3] - v[k]);
-      clipInterval(m.dot(p0 - v[k]), m.dot(p1 - v[k]), q0, q1);
+      double e0 = m.dot(p0 - v[k]), e1 = m.dot(p1 - v[k]);
+      if (e0 < 0.0 || e1 < 0.0) {
+        if (noise < 0.0)
+          noise = 0x1p-40 * 32.0 * scaled.scale *
+                  ((p0 - v[0]).cwiseAbs().sum() + (p1 - v[0]).cwiseAbs().sum() + 12.0 * scaled.scale + coordinates);
+        if (std::abs(e0) <= noise) e0 = 0.0;
+        if (std::abs(e1) <= noise) e1 = 0.0;
+      }
+      clipInterval(e0, e1, q0, q1);
     }
     const double f0 = std::max(q0, s0), f1 = std::min(q1, s1);  // front piece over the face
     const double face_distance =
@@ -176,6 +203,40 @@ struct CapsuleNarrowphase {
     patch.count = 1;
     patch.points[0] = best.p - radius * patch.normal;
     patch.depths[0] = radius - d;
+    // A core running along the edge (a capsule lying along a ridge, or
+    // along a table's edge) touches it along a line, as a core lying on a
+    // face does (3.): the closest pair alone gives one point of it
+    // (anywhere along the line when the two are parallel), and a capsule
+    // held at one point of its length pivots about it. The line's ends are
+    // the ends of the core's piece over the edge (the part that projects
+    // onto the edge between its vertices); each is a point of the patch
+    // when within reach and in the same contact plane, its direction from
+    // the edge within the manifold angle of the normal (a core crossing the
+    // edge has its piece's ends far off that direction). Its depth is r
+    // minus its own distance.
+    {
+      const int k = best_edge;
+      const Vec3 e = v[(k + 1) % 3] - v[k];
+      const double e2 = e.squaredNorm();
+      // [g0, g1], on the front part: where 0 <= (P(s) - v_k) . e <= |e|^2.
+      const double a0 = (front0 - v[k]).dot(e), a1 = (front1 - v[k]).dot(e);
+      double g0 = 0.0, g1 = 1.0;
+      clipInterval(a0, a1, g0, g1);
+      clipInterval(e2 - a0, e2 - a1, g0, g1);
+      const double apart = 1e-9 * scale / ((s1 - s0) * dir.norm());  // a parameter step that is a length
+      for (const double g : {g0, g1}) {
+        if (g0 > g1 || !(std::abs(g - best.s) > apart) || (g == g1 && !(g1 - g0 > apart))) continue;
+        const Vec3 end = front0 + g * (front1 - front0);
+        const double u = std::clamp((end - v[k]).dot(e) / e2, 0.0, 1.0);
+        const Vec3 w = end - (v[k] + u * e);
+        const double distance = w.norm();
+        if (distance <= reach && w.dot(patch.normal) >= cos_manifold * distance) {
+          patch.points[patch.count] = end - radius * patch.normal;
+          patch.depths[patch.count] = radius - distance;
+          ++patch.count;
+        }
+      }
+    }
     if (patch.depths[0] > 0.0) {
       patch.feature = supportFeature(v[0], v[1], v[2], patch.normal);
     } else {
@@ -188,10 +249,15 @@ struct CapsuleNarrowphase {
   }
 };
 
-CapsuleNarrowphase makeNarrowphase(const Capsule& capsule, const Pose& pose, double contact_distance) {
+CapsuleNarrowphase makeNarrowphase(const Capsule& capsule, const Pose& pose, const QuerySettings& settings) {
   const Vec3 axis = pose.rotation.col(2) * capsule.half_length;
-  return {pose.translation - axis, pose.translation + axis, capsule.radius, capsule.radius + contact_distance,
-          capsule.radius + capsule.half_length};
+  return {pose.translation - axis,
+          pose.translation + axis,
+          capsule.radius,
+          capsule.radius + settings.contact_distance,
+          capsule.radius + capsule.half_length,
+          std::cos(settings.manifold_angle_deg * (M_PI / 180.0)),
+          std::max((pose.translation - axis).cwiseAbs().maxCoeff(), (pose.translation + axis).cwiseAbs().maxCoeff())};
 }
 
 Status checkQuery(const Capsule& capsule, const Pose& pose, const QuerySettings& settings) {
@@ -213,7 +279,7 @@ Status collideCapsuleCandidates(const Capsule& capsule, const Pose& pose, const 
   if (!s) return s;
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
-  detail::manifoldContacts(makeNarrowphase(capsule, pose, settings.contact_distance), candidates, count, settings,
+  detail::manifoldContacts(makeNarrowphase(capsule, pose, settings), candidates, count, settings,
                            detail::candidateIdentity(settings), scratch, contacts);
   return Status::ok();
 }
@@ -224,7 +290,7 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(capsule, pose, settings);
   if (!s) return s;
-  const CapsuleNarrowphase np = makeNarrowphase(capsule, pose, settings.contact_distance);
+  const CapsuleNarrowphase np = makeNarrowphase(capsule, pose, settings);
   const Vec3 reach = Vec3::Constant(np.reach);
   QueryScratch::Impl& sc = scratch.impl();
   detail::VertexIdentity identity;

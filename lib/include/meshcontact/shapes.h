@@ -59,7 +59,12 @@ struct Cylinder {
 /// of the plane is used for closest features, so a normal never points to
 /// the triangle's back. A capsule lying along a face gets 2 points (its
 /// segment clipped to the triangle's prism), each reported when within the
-/// contact distance. A triangle whose closest feature is an edge or vertex
+/// contact distance. A capsule lying along an edge (a ridge, a table's edge)
+/// likewise gets the ends of the line contact besides its closest point:
+/// the ends of its segment's part that projects onto the edge, each when
+/// within the contact distance and its direction from the edge within
+/// settings.manifold_angle_deg of the contact's normal (one contact plane).
+/// A triangle whose closest feature is an edge or vertex
 /// while part of the segment lies over its face within reach reports that
 /// part as face contacts too, kept even when the filter voids the edge (a
 /// capsule tilted over a tessellated floor keeps both ends).
