@@ -16,18 +16,33 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// The tiles of a floor, in the floor's frame (`floor_pose`). Each tile's
+// model holds the floor's coordinates and has the floor's transform (equal
+// transforms keep the seams bitwise equal), or, with `own_frames`, holds
+// coordinates relative to its corner and has the floor's transform moved to
+// that corner (instanced pieces: every mesh of a shape's group but the first
+// is then in a frame of its own).
 struct TiledWorld {
   std::vector<SceneMesh> scenes = scenes::tiledFloor(4, 4, 2, 0.5, 61);
-  std::vector<TriangleMesh> core_meshes;
+  std::vector<TriangleMesh> core_meshes;  // in the floor's frame
   std::vector<std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>>> models;
   std::vector<std::unique_ptr<::fcl::CollisionObjectd>> tiles;
-  Pose floor_pose;  // every tile's transform (equal transforms keep the seams bitwise equal)
+  Pose floor_pose;
 
-  explicit TiledWorld(const Pose& pose) : floor_pose(pose) {
+  explicit TiledWorld(const Pose& pose, bool own_frames = false) : floor_pose(pose) {
     for (const SceneMesh& s : scenes) {
       core_meshes.push_back(testing::buildMesh(s));
-      models.push_back(fclModel<::fcl::OBBRSSd>(s));
-      tiles.push_back(std::make_unique<::fcl::CollisionObjectd>(models.back(), toTransform(pose)));
+      Pose tile_pose = pose;
+      SceneMesh local = s;
+      if (own_frames) {
+        Vec3 corner(s.vertex(0).x(), s.vertex(0).y(), 0.0);
+        for (std::size_t i = 0; i < s.vertexCount(); ++i) corner = corner.cwiseMin(Vec3(s.vertex(i).x(), s.vertex(i).y(), 0.0));
+        for (std::size_t i = 0; i < s.vertexCount(); ++i)
+          for (int k = 0; k < 3; ++k) local.vertices[3 * i + k] -= corner[k];
+        tile_pose.translation = pose.apply(corner);
+      }
+      models.push_back(fclModel<::fcl::OBBRSSd>(local));
+      tiles.push_back(std::make_unique<::fcl::CollisionObjectd>(models.back(), toTransform(tile_pose)));
     }
   }
   int tileOf(const ::fcl::CollisionGeometryd* g) const {
@@ -213,9 +228,15 @@ ClearPlacement clearPlacement(const ShapeCase& shape, double p_across, double p_
 // (clearPlacement: a third across the floor's plane, a third above, a third
 // below). The contacts request answers the same, with and without a
 // ModelCache.
-TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
+// Whether each shape touches the floor, from every path: checking and
+// contacts, with and without a ModelCache, and with the tiles in the floor's
+// frame or each in its own (the walk then tests each triangle's bounds in
+// its model's frame, where the query's bounds are: tested after mapping the
+// corners to the group's frame, a shape across two tiles could lose every
+// contact).
+void checkTouchingShapes(bool own_frames) {
   scenes::Rng rng(63);
-  const TiledWorld world(randomPose(rng, 2.0));
+  const TiledWorld world(randomPose(rng, 2.0), own_frames);
   fcl::ModelCache cache;
   for (const auto& m : world.models) ASSERT_TRUE(cache.add(m.get()).isOk());
   fcl::Options cached;
@@ -273,6 +294,10 @@ TEST(Broadphase, CheckingFindsTheShapesThatTouch) {
   EXPECT_GT(sunk, touching / 10);
   EXPECT_GT(apart, checked / 4 / 5);
 }
+
+TEST(Broadphase, CheckingFindsTheShapesThatTouch) { checkTouchingShapes(false); }
+
+TEST(Broadphase, CheckingFindsTheShapesThatTouchInstancedTiles) { checkTouchingShapes(true); }
 
 // defaultCollisionFunction against FCL's DefaultCollisionFunction on the
 // same managers: rounds of 3 shapes at clear placements (clearPlacement: a

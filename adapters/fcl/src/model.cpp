@@ -149,14 +149,19 @@ template <class BV>
   for (int k = 0; k < 3; ++k) {
     const std::size_t v = tri[k];
     if (v >= static_cast<std::size_t>(m.num_vertices)) return false;
-    c.vertices[k] = identity ? Vec3(m.vertices[v]) : to_query.apply(m.vertices[v]);
+    c.vertices[k] = m.vertices[v];
     c.keys[k] = v;
   }
+  // The bounds test in the model frame, where the query's bounds are: before
+  // the corners are mapped to the query frame (a broadphase group's meshes
+  // other than the first have their own frame).
   if (!q.ball_only) {
     const Vec3 lo = c.vertices[0].cwiseMin(c.vertices[1]).cwiseMin(c.vertices[2]);
     const Vec3 hi = c.vertices[0].cwiseMax(c.vertices[1]).cwiseMax(c.vertices[2]);
     if ((lo.array() > q.hi.array()).any() || (hi.array() < q.lo.array()).any()) return true;
   }
+  if (!identity)
+    for (Vec3& corner : c.vertices) corner = to_query.apply(corner);
   c.mesh = mesh_index;
   c.triangle = static_cast<std::uint32_t>(t);
   out.push_back(c);

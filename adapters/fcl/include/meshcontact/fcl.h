@@ -348,10 +348,12 @@ struct ObjectContact {
 ///   for (const ObjectContact& c : collector.contacts()) ...
 ///
 /// Grouped contacts have o1 = the mesh object (its geometry in contact.o1,
-/// b1 = the triangle), o2 = the shape, normal from the mesh toward the shape;
-/// the query frame is the world frame, and triangles of different meshes
-/// share a vertex when their world positions are bitwise equal (meshes
-/// authored in one frame with equal transforms; the core's KeyMode).
+/// b1 = the triangle), o2 = the shape, normal from the mesh toward the shape
+/// (world frame, as every FCL contact). A shape's query runs in the frame of
+/// the first of its meshes (the manager's order), and triangles of
+/// different meshes share a vertex when their positions are bitwise equal in
+/// that frame (meshes authored in one frame with equal transforms; the
+/// core's KeyMode); each mesh may have a transform of its own.
 /// Pairs that are not mesh-vs-shape are passed to fcl::collide in the
 /// manager's order. request.num_max_contacts applies per shape (all its
 /// meshes together) and per forwarded pair. Collision checking (FCL's
