@@ -157,6 +157,66 @@ void spheres(fcl::PostFilterMode mode) {
   EXPECT_GT(with_contacts, poses / 2);
 }
 
+// Every BV type the adapter takes: FCL's raw sphere contacts on a rotated,
+// tessellated floor are cleaned (no ghost by the sphere oracle, nothing
+// valid dropped), whichever argument order. FCL collides an AABB model
+// through a temporary copy, so its raw contacts name the copy on the mesh's
+// side: postFilter refused every one of them ("another pair of
+// geometries").
+template <class BV>
+void spheresOnEachBv(const char* bv_name) {
+  const SceneMesh scene = scenes::flatFloor(8, 8, 0.5, 35);
+  auto model = fclModel<BV>(scene);
+  const scenes::SphereOracle oracle(scene);
+  scenes::Rng rng(36);
+  const Pose mesh_pose = randomPose(rng, 2.0);
+  ::fcl::CollisionObjectd mesh(model, toTransform(mesh_pose));
+  fcl::Scratch scratch;
+  int with_raw = 0, foreign_model = 0;
+  for (int i = 0; i < testing::scaled(400); ++i) {
+    const double r = rng.uniform(0.05, 0.6);
+    Pose local;
+    local.translation = Vec3(rng.uniform(0.6, 3.4), rng.uniform(0.6, 3.4), rng.uniform(1e-3, 1.2) * r);
+    ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(r), toTransform(mesh_pose * local));
+    const bool mesh_first = i % 2 == 0;
+    const ::fcl::CollisionObjectd& o1 = mesh_first ? mesh : sphere;
+    const ::fcl::CollisionObjectd& o2 = mesh_first ? sphere : mesh;
+    const ::fcl::CollisionRequestd request(1000, true);
+    const ::fcl::CollisionResultd raw = fclRaw(o1, o2, request);
+    const std::string config = std::string(bv_name) + " pose " + std::to_string(i) + ": radius " +
+                               std::to_string(r) + ", centre in the mesh frame " + testing::str(local.translation) +
+                               (mesh_first ? " (mesh, sphere)" : " (sphere, mesh)");
+    for (const auto& c : contactsOf(raw)) foreign_model += c.o1 != model.get() && c.o2 != model.get();
+    ::fcl::CollisionResultd cleaned;
+    fcl::Report report;
+    const Status s = fcl::postFilter(&o1, &o2, request, raw, cleaned, fcl::Options(), scratch, &report);
+    ASSERT_TRUE(s.isOk()) << config << ": " << s.message();
+    if (raw.numContacts() == 0) continue;
+    ++with_raw;
+    std::vector<Contact> in_mesh;
+    for (const auto& c : contactsOf(cleaned)) {
+      EXPECT_EQ(mesh_first ? c.o1 : c.o2, model.get()) << config;
+      Contact m;
+      m.normal = mesh_pose.rotation.transpose() * (mesh_first ? c.normal : Vec3(-c.normal));
+      in_mesh.push_back(m);
+    }
+    EXPECT_FALSE(in_mesh.empty()) << "nothing valid may be dropped: " << config;
+    EXPECT_EQ(scenes::SphereOracle::score(oracle.validNormals(local.translation, r), in_mesh).ghosts, 0) << config;
+    if (::testing::Test::HasFailure()) return;
+  }
+  std::printf("%s: %d poses with raw contacts, %d raw contacts naming another model\n",
+              bv_name, with_raw, foreign_model);
+  EXPECT_GT(with_raw, testing::scaled(400) / 2);
+}
+
+TEST(PostFilter, EachBvType) {
+  spheresOnEachBv<::fcl::AABBd>("AABB");
+  spheresOnEachBv<::fcl::OBBd>("OBB");
+  spheresOnEachBv<::fcl::RSSd>("RSS");
+  spheresOnEachBv<::fcl::kIOSd>("kIOS");
+  spheresOnEachBv<::fcl::OBBRSSd>("OBBRSS");
+}
+
 TEST(PostFilter, SpheresRecomputed) { spheres(fcl::PostFilterMode::kRecompute); }
 TEST(PostFilter, SpheresClassified) { spheres(fcl::PostFilterMode::kClassifyFcl); }
 

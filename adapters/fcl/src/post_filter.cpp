@@ -19,11 +19,16 @@ using detail::ShapeDesc;
 // The raw contact's triangle, with its vertices in the model frame.
 // Returns false (and an error) when the contact is not of this pair or
 // names a triangle the model does not have.
+// FCL collides an AABB model through a temporary copy (its BVHShapeCollider
+// moves the copy's vertices to the world frame, keeping the triangles'
+// order, and deletes it on return): such a contact names the copy, a freed
+// address, on the mesh's side. There only the shape's side is matched.
 Status rawTriangle(const ::fcl::Contactd& rc, std::size_t i, const MeshDesc& mesh, const ShapeDesc& shape,
                    CandidateTriangle& c, bool& contact_mesh_first) {
-  if (rc.o1 == mesh.geometry && rc.o2 == shape.geometry)
+  const bool copied = mesh.bv == detail::BvKind::kAABB;
+  if ((rc.o1 == mesh.geometry || (copied && rc.o1 != shape.geometry)) && rc.o2 == shape.geometry)
     contact_mesh_first = true;
-  else if (rc.o1 == shape.geometry && rc.o2 == mesh.geometry)
+  else if (rc.o1 == shape.geometry && (rc.o2 == mesh.geometry || (copied && rc.o2 != shape.geometry)))
     contact_mesh_first = false;
   else
     return {ErrorCode::kInvalidSettings, "raw contact " + std::to_string(i) + " belongs to another pair of geometries"};

@@ -318,8 +318,10 @@ bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjec
 /// in collision never comes out empty: when no one-sided contact remains,
 /// the fallback of Report::through_contacts adds one.
 /// Errors: kInvalidSettings (a raw result without contact geometry, i.e.
-/// enable_contact was false; a raw contact of another pair of geometries;
-/// a non-finite raw contact), kIndexOutOfRange (a triangle the model does
+/// enable_contact was false; a raw contact of another pair of geometries
+/// (of an AABB model, whose raw contacts name a temporary copy of it that
+/// FCL made, only the shape's side can be matched); a non-finite raw
+/// contact), kIndexOutOfRange (a triangle the model does
 /// not have), and collide()'s errors for the objects.
 Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                   const ::fcl::CollisionRequestd& request, const ::fcl::CollisionResultd& raw,
