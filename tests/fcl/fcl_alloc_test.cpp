@@ -9,6 +9,8 @@
 
 #include <meshcontact_scenes/allocation_counter.h>
 
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+
 namespace meshcontact {
 namespace {
 
@@ -54,6 +56,49 @@ TEST(FclAllocation, NoAllocationPerQueryOnceWarm) {
       EXPECT_GT(through, 20u) << shape.name << (contacts ? ", contacts" : ", collision checking");
       EXPECT_GT(hits, through) << shape.name << (contacts ? ", contacts" : ", collision checking");
     }
+  }
+}
+
+// A BroadphaseCollector pass (the manager's pairs, then finish(): the
+// grouped queries over a floor of separate tiles) allocates nothing once
+// the collector is warm. finish() sorted the pairs with std::stable_sort,
+// which took a buffer from the heap on every call.
+TEST(FclAllocation, BroadphaseCollectorOnceWarm) {
+  std::vector<std::unique_ptr<::fcl::CollisionObjectd>> tiles;
+  for (const scenes::SceneMesh& tile : scenes::tiledFloor(4, 4, 2, 0.5, 12))
+    tiles.push_back(std::make_unique<::fcl::CollisionObjectd>(scenes::fclModel<::fcl::OBBRSSd>(tile)));
+  scenes::Rng rng(24);
+  const std::vector<ShapeCase> kinds = allShapes();
+  // Shapes 1.2 m apart, each within 0.6 m of its place (its half
+  // diagonal): no shape-vs-shape pair, which the collector would forward to
+  // fcl::collide (libccd allocates); several across a seam between tiles.
+  std::vector<std::unique_ptr<::fcl::CollisionObjectd>> shapes;
+  for (int i = 0; i < 9; ++i) {
+    const ShapeCase& shape = kinds[i % kinds.size()];
+    ASSERT_LT(shape.halfDiagonal(), 0.6) << shape.name;
+    Pose pose = fcltest::randomPose(rng, 1.0);
+    pose.translation = Vec3(0.8 + 1.2 * (i % 3), 0.8 + 1.2 * (i / 3), rng.uniform(-0.5, 1.0) * shape.halfSize());
+    shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), fcltest::toTransform(pose)));
+  }
+  ::fcl::DynamicAABBTreeCollisionManagerd manager;
+  for (const auto& t : tiles) manager.registerObject(t.get());
+  for (const auto& sh : shapes) manager.registerObject(sh.get());
+  manager.setup();
+  for (const bool contacts : {true, false}) {
+    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(contacts ? 64 : 1, contacts));
+    long allocations = 0;
+    std::size_t found = 0;
+    for (int round = 0; round < 2; ++round) {  // round 0 warms up
+      collector.clear();
+      manager.collide(&collector, fcl::BroadphaseCollector::callback);
+      if (round == 1) heap::startCounting();
+      const Status s = collector.finish();
+      if (round == 1) allocations = heap::stopCounting();
+      ASSERT_TRUE(s.isOk()) << s.message();
+      found = collector.contacts().size();
+    }
+    EXPECT_EQ(allocations, 0) << (contacts ? "contacts" : "collision checking");
+    EXPECT_GT(found, 5u) << (contacts ? "contacts" : "collision checking");  // the queries found contacts
   }
 }
 

@@ -216,9 +216,11 @@ Status BroadphaseCollector::finish() {
   const double cd = impl.options.settings.contact_distance;
   if (!std::isfinite(cd) || cd < 0.0)
     return {ErrorCode::kInvalidSettings, "contact_distance must be finite and >= 0, got " + detail::describeValue(cd)};
-  // Group the mesh-vs-shape pairs by shape, each group in arrival order.
+  // Group the mesh-vs-shape pairs by shape, each group in arrival order (a
+  // total order: seq is unique; std::sort, as std::stable_sort takes a
+  // buffer from the heap on every call).
   std::vector<Impl::Pair>& pairs = impl.pairs;
-  std::stable_sort(pairs.begin(), pairs.end(), [](const Impl::Pair& x, const Impl::Pair& y) {
+  std::sort(pairs.begin(), pairs.end(), [](const Impl::Pair& x, const Impl::Pair& y) {
     if (x.grouped != y.grouped) return x.grouped;
     if (x.grouped && x.a != y.a) return std::less<const ::fcl::CollisionObjectd*>()(x.a, y.a);
     return x.seq < y.seq;
