@@ -33,6 +33,25 @@ TEST(MeshBuild, EmptyMeshIsAnError) {
   EXPECT_FALSE(mesh.isBuilt());
 }
 
+// The vector overload: a stray coordinate or index (a size that is not a
+// multiple of 3) was dropped by the division, and the rest built. A null
+// array with a count says so.
+TEST(MeshBuild, ArraysThatAreNotWholeVerticesOrTrianglesAreAnError) {
+  TriangleMesh mesh;
+  std::vector<double> vertices = kVertices;
+  vertices.push_back(5.0);
+  expectError(mesh.build(vertices, kIndices), ErrorCode::kInvalidSettings, "multiple of 3");
+  std::vector<std::uint32_t> indices = kIndices;
+  indices.push_back(99);
+  expectError(mesh.build(kVertices, indices), ErrorCode::kInvalidSettings, "multiple of 3");
+  EXPECT_FALSE(mesh.isBuilt());
+  expectError(mesh.build(MeshView{nullptr, 3, kIndices.data(), 1}), ErrorCode::kEmptyMesh,
+              "vertices is null with vertex_count 3");
+  expectError(mesh.build(MeshView{kVertices.data(), kVertices.size() / 3, nullptr, 2}), ErrorCode::kEmptyMesh,
+              "indices is null with triangle_count 2");
+  ASSERT_TRUE(mesh.build(kVertices, kIndices).isOk());  // the whole arrays build
+}
+
 TEST(MeshBuild, OutOfRangeIndexNamesTriangleCornerAndIndex) {
   TriangleMesh mesh;
   const std::vector<std::uint32_t> indices = {0, 1, 2, 2, 1, 3};

@@ -98,12 +98,27 @@ std::size_t TriangleMesh::memoryBytes() const {
          owned_indices_.capacity() * sizeof(std::uint32_t);
 }
 
+Status TriangleMesh::build(const std::vector<double>& vertices, const std::vector<std::uint32_t>& indices) {
+  if (vertices.size() % 3 != 0 || indices.size() % 3 != 0) {
+    reset();
+    return {ErrorCode::kInvalidSettings, "the arrays hold " + std::to_string(vertices.size()) + " coordinates and " +
+                                             std::to_string(indices.size()) +
+                                             " indices; each must be a multiple of 3 (x, y, z per vertex, 3 "
+                                             "indices per triangle)"};
+  }
+  return build(MeshView{vertices.data(), vertices.size() / 3, indices.data(), indices.size() / 3}, Storage::kCopy);
+}
+
 Status TriangleMesh::build(const MeshView& view, Storage storage) {
   reset();
-  if (view.vertex_count == 0 || view.vertices == nullptr)
-    return {ErrorCode::kEmptyMesh, "mesh has no vertices"};
-  if (view.triangle_count == 0 || view.indices == nullptr)
-    return {ErrorCode::kEmptyMesh, "mesh has no triangles"};
+  if (view.vertex_count == 0) return {ErrorCode::kEmptyMesh, "mesh has no vertices"};
+  if (view.vertices == nullptr)
+    return {ErrorCode::kEmptyMesh,
+            "mesh has no vertices: vertices is null with vertex_count " + std::to_string(view.vertex_count)};
+  if (view.triangle_count == 0) return {ErrorCode::kEmptyMesh, "mesh has no triangles"};
+  if (view.indices == nullptr)
+    return {ErrorCode::kEmptyMesh,
+            "mesh has no triangles: indices is null with triangle_count " + std::to_string(view.triangle_count)};
   constexpr std::size_t kMax = static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max());
   if (view.vertex_count > kMax || view.triangle_count > kMax)
     return {ErrorCode::kTooLarge, "mesh has " + std::to_string(view.vertex_count) + " vertices and " +

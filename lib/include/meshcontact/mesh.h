@@ -85,11 +85,10 @@ class TriangleMesh {
   /// they are counted, left out of the BVH, and never produce a contact.
   Status build(const MeshView& view, Storage storage = Storage::kCopy);
 
-  /// Convenience overload that copies.
-  Status build(const std::vector<double>& vertices, const std::vector<std::uint32_t>& indices) {
-    return build(MeshView{vertices.data(), vertices.size() / 3, indices.data(), indices.size() / 3},
-                 Storage::kCopy);
-  }
+  /// Convenience overload that copies: x, y, z per vertex, 3 indices per
+  /// triangle. Errors: build()'s, and kInvalidSettings when a size is not a
+  /// multiple of 3 (a stray coordinate or index is never dropped silently).
+  Status build(const std::vector<double>& vertices, const std::vector<std::uint32_t>& indices);
 
   bool isBuilt() const { return built_; }
   std::size_t vertexCount() const { return vertex_count_; }
