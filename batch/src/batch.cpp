@@ -92,6 +92,38 @@ Status checkBatch(const MeshInstance* instances, std::size_t instance_count, con
   return Status::ok();
 }
 
+// Pass 1 of collideBatch: answer the queries, block by block. A block's
+// queries run in index order on one thread; offsets[i + 1] holds query i's
+// count.
+void runQueries(const MeshInstance* instances, std::size_t instance_count, const BatchQuery* queries,
+                std::size_t count, const BatchSettings& settings, BatchScratch::Impl& impl, std::size_t blocks,
+                BatchOutput& out) {
+  const std::size_t block = settings.block_size;
+  const QuerySettings& query_settings = settings.query;
+  impl.arenaFor(settings.max_threads).execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, blocks, 1),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          QueryScratch& query_scratch = impl.query_scratch.local();
+          std::vector<Contact>& contacts = impl.query_contacts.local();
+          for (std::size_t b = range.begin(); b != range.end(); ++b) {
+            std::vector<Contact>& block_contacts = impl.blocks[b];
+            block_contacts.clear();
+            const std::size_t end = b * block + std::min(block, count - b * block);  // (b + 1) * block may wrap
+            for (std::size_t i = b * block; i < end; ++i) {
+              Status s = collideOne(instances, instance_count, queries[i], query_settings, query_scratch, contacts);
+              if (s) {
+                block_contacts.insert(block_contacts.end(), contacts.begin(), contacts.end());
+                out.offsets[i + 1] = contacts.size();
+              }
+              out.status[i] = std::move(s);
+            }
+          }
+        },
+        tbb::simple_partitioner());
+  });
+}
+
 }  // namespace
 
 Status collideBatch(const MeshInstance* instances, std::size_t instance_count, const BatchQuery* queries,
@@ -116,32 +148,22 @@ Status collideBatch(const MeshInstance* instances, std::size_t instance_count, c
   // SIZE_MAX (then no block ran and every query came back empty, as ok).
   const std::size_t blocks = count / block + (count % block != 0);
   if (impl.blocks.size() < blocks) impl.blocks.resize(blocks);
-  const QuerySettings& query_settings = settings.query;
 
-  impl.arenaFor(settings.max_threads).execute([&] {
-    // Pass 1: answer the queries, block by block. A block's queries run in
-    // index order on one thread; offsets[i + 1] holds query i's count.
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, blocks, 1),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-          QueryScratch& query_scratch = impl.query_scratch.local();
-          std::vector<Contact>& contacts = impl.query_contacts.local();
-          for (std::size_t b = range.begin(); b != range.end(); ++b) {
-            std::vector<Contact>& block_contacts = impl.blocks[b];
-            block_contacts.clear();
-            const std::size_t end = b * block + std::min(block, count - b * block);  // (b + 1) * block may wrap
-            for (std::size_t i = b * block; i < end; ++i) {
-              Status s = collideOne(instances, instance_count, queries[i], query_settings, query_scratch, contacts);
-              if (s) {
-                block_contacts.insert(block_contacts.end(), contacts.begin(), contacts.end());
-                out.offsets[i + 1] = contacts.size();
-              }
-              out.status[i] = std::move(s);
-            }
-          }
-        },
-        tbb::simple_partitioner());
-  });
+  // An exception from a query (a user's SupportShape, std::bad_alloc)
+  // cancels the parallel loop and leaves it; `out` is then made whole (no
+  // contacts, every query failed) before it is rethrown, rather than left
+  // with the offsets of the blocks that happened to finish.
+  try {
+    runQueries(instances, instance_count, queries, count, settings, impl, blocks, out);
+  } catch (...) {
+    out.contacts.clear();
+    std::fill(out.offsets.begin(), out.offsets.end(), 0);
+    std::fill(out.status.begin(), out.status.end(),
+              Status(ErrorCode::kInvalidShape,
+                     "collideBatch: not answered; a query threw an exception (rethrown to the caller)"));
+    out.failed = count;
+    throw;
+  }
 
   // Offsets: a running sum over the query index (sequential, O(count)).
   for (std::size_t i = 0; i < count; ++i) {

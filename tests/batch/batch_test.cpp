@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace meshcontact {
 namespace {
@@ -280,6 +281,52 @@ TEST_F(BatchTest, EmptyBatchAndBatchLevelErrors) {
   ASSERT_TRUE(collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out).isOk());
   EXPECT_EQ(out.failed, 0u);
   for (std::size_t i = 0; i < queries.size(); ++i) EXPECT_EQ(out.contactCount(i), 1u) << "query " << i;
+}
+
+// A user's SupportShape that throws (here along directions pointing down)
+// stops the batch: the exception reaches the caller, and `out` holds every
+// query unanswered (no contacts, each failed), not the offsets of whichever
+// blocks had finished. The scratch and output then answer the next batch.
+struct ThrowingShape final : SupportShape {
+  Vec3 support(const Vec3& d) const override {
+    if (d.z() < -0.5 * d.norm()) throw std::runtime_error("ThrowingShape: no support downward");
+    return 0.2 * d.normalized();
+  }
+  double margin() const override { return 0.05; }
+};
+
+TEST_F(BatchTest, AQueryThatThrowsStopsTheBatchCleanly) {
+  const TriangleMesh mesh = testing::buildMesh(scenes::flatFloor(4, 4, 0.5, 1));
+  const MeshInstance instance{&mesh, Pose::identity()};
+  std::vector<BatchQuery> queries(100, BatchQuery::ofSphere({Vec3(1.1, 1.13, 0.1), 0.2}));
+  const ThrowingShape thrower;
+  Pose pose = Pose::identity();
+  pose.translation = Vec3(1.0, 1.0, 0.2);
+  queries[50] = BatchQuery::ofConvex(thrower, pose);
+  BatchScratch scratch;
+  BatchOutput out;
+  for (const int threads : {1, 2}) {
+    BatchSettings settings;
+    settings.block_size = 1;
+    settings.max_threads = threads;
+    EXPECT_THROW((void)collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out),
+                 std::runtime_error)
+        << threads << " threads";
+    ASSERT_EQ(out.status.size(), queries.size());
+    ASSERT_EQ(out.offsets.size(), queries.size() + 1);
+    EXPECT_TRUE(out.contacts.empty());
+    EXPECT_EQ(out.failed, queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+      EXPECT_EQ(out.contactCount(i), 0u) << "query " << i;
+      EXPECT_EQ(out.status[i].code(), ErrorCode::kInvalidShape) << "query " << i;
+    }
+    // The same scratch and output answer a batch without the thrower.
+    std::vector<BatchQuery> good = queries;
+    good[50] = queries[0];
+    ASSERT_TRUE(collideBatch(&instance, 1, good.data(), good.size(), settings, scratch, out).isOk());
+    EXPECT_EQ(out.failed, 0u);
+    for (std::size_t i = 0; i < good.size(); ++i) EXPECT_EQ(out.contactCount(i), 1u) << "query " << i;
+  }
 }
 
 // Extreme but valid settings answer every query: a block_size near SIZE_MAX

@@ -151,6 +151,12 @@ class BatchScratch {
 /// a null mesh, or a mesh whose build() did not succeed). Then `out` holds
 /// count queries with no contacts, each with that same error. An empty batch
 /// succeeds with offsets = {0}.
+/// An exception thrown inside a query (by a user's SupportShape, convex.h,
+/// or std::bad_alloc) stops the batch (oneTBB cancels the blocks not yet
+/// started) and is rethrown to the caller once the running ones ended; `out`
+/// then holds count queries with no contacts, each with kInvalidShape saying
+/// that the batch was stopped (none half-written), and the scratch stays
+/// usable.
 Status collideBatch(const MeshInstance* instances, std::size_t instance_count, const BatchQuery* queries,
                     std::size_t count, const BatchSettings& settings, BatchScratch& scratch, BatchOutput& out);
 

@@ -80,6 +80,10 @@ namespace meshcontact {
 ///   best resting contacts.
 /// - The shape's bounds are derived from six support calls (+-x, +-y, +-z of
 ///   the query frame) grown by the margin, so no bounding volume is needed.
+/// - Its functions do not throw. The library throws nothing itself, but it
+///   does not catch either: an exception from a user's shape (as a
+///   std::bad_alloc) leaves the query and reaches its caller (collideBatch:
+///   see batch.h).
 ///
 /// Example (an ellipsoid with semi-axes r and a margin m of 5% of its
 /// smallest semi-axis: the core is the ellipsoid r - m, so the shape reaches

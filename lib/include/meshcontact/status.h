@@ -1,7 +1,9 @@
 #pragma once
-// Explicit status for every fallible call of the library. No exceptions cross
-// the API and nothing is reported through stderr: a call either succeeds or
-// returns a Status that says what was wrong with which input.
+// Explicit status for every fallible call of the library. The library throws
+// no exception and reports nothing through stderr: a call either succeeds or
+// returns a Status that says what was wrong with which input. (What it does
+// not catch passes through: std::bad_alloc, and an exception thrown by user
+// code it calls, a SupportShape's functions, convex.h.)
 
 #include <string>
 #include <utility>
