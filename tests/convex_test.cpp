@@ -775,6 +775,150 @@ std::vector<Vec3> randomHullPoints(std::uint64_t seed, int count, const Vec3& ra
   return points;
 }
 
+// A line contact lying over an internal edge: a grid of unit cells split
+// along their (0,0)-(1,1) diagonals, rotated about (1, 2, 3) by 1..359
+// degrees and offset, with a cylinder on its side along the main diagonal
+// (0.003 deep, within its margin) and a box-like hull with an edge down
+// along it. The contacts must span the whole line (both ends of the core's
+// supporting segment): both triangles' edge-plane tests there are rounding
+// noise of either sign, and clipping the segment at their ratio left one
+// end, or the whole length, unsupported on ~5% of these grids.
+TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
+  const Cylinder cylinder{0.1, 0.5};
+  const CylinderShape cylinder_shape(cylinder);
+  const ConvexHull hull = boxHull(Vec3(0.5, 0.2, 0.2));
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  int lines = 0;
+  for (int deg = 1; deg < 360; deg += 2) {
+    const Mat3 r = Eigen::AngleAxisd(deg * M_PI / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+    const Vec3 offset(0.3, 0.7, -1.1);
+    SceneMesh grid;
+    constexpr int kCells = 6;
+    for (int y = 0; y <= kCells; ++y)
+      for (int x = 0; x <= kCells; ++x) grid.addVertex(r * Vec3(x, y, 0) + offset);
+    for (int y = 0; y < kCells; ++y)
+      for (int x = 0; x < kCells; ++x) {
+        const std::uint32_t v00 = y * (kCells + 1) + x, v10 = v00 + 1, v01 = v00 + kCells + 1, v11 = v01 + 1;
+        grid.addTriangle(v00, v10, v11);
+        grid.addTriangle(v00, v11, v01);
+      }
+    const TriangleMesh mesh = testing::buildMesh(grid);
+    const Vec3 n = r.col(2), axis = (r * Vec3(1, 1, 0)).normalized();
+    const auto span = [&](const Pose& pose, double half_line, const std::string& what) {
+      double lo = INFINITY, hi = -INFINITY;
+      for (const Contact& c : contacts) {
+        const double t = axis.dot(c.point - pose.translation);
+        lo = std::min(lo, t), hi = std::max(hi, t);
+        EXPECT_LT(degreesBetween(c.normal, n), 1e-6) << what;
+      }
+      EXPECT_LE(lo, -half_line + 1e-6) << what << ": the line's end at " << -half_line << " has no contact";
+      EXPECT_GE(hi, half_line - 1e-6) << what << ": the line's end at " << half_line << " has no contact";
+      ++lines;
+    };
+    for (const double along : {2.5, 3.25}) {
+      Pose pose;
+      pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis).toRotationMatrix();
+      pose.translation = r * Vec3(along, along, 0) + offset + (cylinder.radius - 0.003) * n;
+      ASSERT_TRUE(collideCylinder(mesh, cylinder, pose, QuerySettings(), scratch, contacts).isOk());
+      span(pose, cylinder.half_length - cylinder_shape.margin(),
+           "cylinder, grid rotated by " + std::to_string(deg) + " degrees, centre at " + std::to_string(along));
+    }
+    // The hull's x along the diagonal, its edge (y = -0.2, z = -0.2) down:
+    // 45 degrees about x, then the grid's rotation and the diagonal's yaw.
+    const Mat3 local = Eigen::AngleAxisd(M_PI / 4, Vec3::UnitZ()).toRotationMatrix() *
+                       Eigen::AngleAxisd(M_PI / 4, Vec3::UnitX()).toRotationMatrix();
+    Pose pose;
+    pose.rotation = r * local;
+    const double m = hull.margin();
+    pose.translation = r * Vec3(2.5, 2.5, 0) + offset + (0.2 * std::sqrt(2.0) - m * (std::sqrt(2.0) - 1) - 0.003) * n;
+    ASSERT_TRUE(collideConvex(mesh, hull, pose, QuerySettings(), scratch, contacts).isOk());
+    span(pose, 0.5 - m, "box hull edge down, grid rotated by " + std::to_string(deg) + " degrees");
+    if (::testing::Test::HasFailure()) return;
+  }
+  EXPECT_EQ(lines, 3 * 180);
+}
+
+// A hull's center and inradius are the hull's own: points on its faces,
+// allowed and dropped, do not move them. A unit cube given with 81 more
+// points on its bottom face had its center 0.045 above that face and a
+// margin a tenth of the plain cube's, and sunk 0.05 into a floor it got no
+// contact. Now the two give the same hull, margin and contacts.
+TEST(ConvexMargin, HullCenterIsTheVolumeCentroid) {
+  std::vector<Vec3> corners;
+  for (int i = 0; i < 8; ++i) corners.push_back(Vec3(i & 1 ? 0.5 : -0.5, i & 2 ? 0.5 : -0.5, i & 4 ? 0.5 : -0.5));
+  std::vector<Vec3> dense = corners;
+  for (int i = 0; i <= 8; ++i)
+    for (int j = 0; j <= 8; ++j)
+      if (!((i == 0 || i == 8) && (j == 0 || j == 8))) dense.push_back(Vec3(-0.5 + i / 8.0, -0.5 + j / 8.0, -0.5));
+  ConvexHull plain, sampled;
+  ASSERT_TRUE(plain.build(corners).isOk());
+  ASSERT_TRUE(sampled.build(dense).isOk());
+  EXPECT_LT(sampled.center().norm(), 1e-12) << str(sampled.center());
+  EXPECT_NEAR(sampled.inradius(), 0.5, 1e-12);
+  EXPECT_NEAR(sampled.margin(), plain.margin(), 1e-12);
+  // A tetrahedron's volume centroid is its corners' mean; points along an
+  // edge do not move it.
+  const std::vector<Vec3> tetra = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(0, 3, 0), Vec3(0, 0, 4)};
+  std::vector<Vec3> tetra_edge = tetra;
+  for (int k = 1; k < 10; ++k) tetra_edge.push_back(Vec3(0.2 * k, 0, 0));
+  ConvexHull t, te;
+  ASSERT_TRUE(t.build(tetra).isOk());
+  ASSERT_TRUE(te.build(tetra_edge).isOk());
+  EXPECT_LT((t.center() - Vec3(0.5, 0.75, 1.0)).norm(), 1e-12) << str(t.center());
+  EXPECT_LT((te.center() - Vec3(0.5, 0.75, 1.0)).norm(), 1e-12) << str(te.center());
+
+  const TriangleMesh floor = testing::buildMesh(scenes::flatFloor(8, 8, 0.5, 3));
+  QueryScratch scratch;
+  std::vector<Contact> a, b;
+  for (const double sink : {0.005, 0.02, 0.05, 0.1}) {
+    Pose pose = Pose::identity();
+    pose.translation = Vec3(2.1, 1.7, 0.5 - sink);
+    ASSERT_TRUE(collideConvex(floor, plain, pose, QuerySettings(), scratch, a).isOk());
+    ASSERT_TRUE(collideConvex(floor, sampled, pose, QuerySettings(), scratch, b).isOk());
+    EXPECT_EQ(a.size(), 4u) << "sunk " << sink;
+    ASSERT_EQ(b.size(), a.size()) << "sunk " << sink;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_LT((a[i].point - b[i].point).norm(), 1e-12) << "sunk " << sink;
+      EXPECT_NEAR(a[i].depth, b[i].depth, 1e-12) << "sunk " << sink;
+      EXPECT_NEAR(b[i].depth, sink, 1e-9) << "sunk " << sink;
+    }
+  }
+}
+
+// A supportFace() that returns no point (against the contract) stands for
+// the support point, as the default supportFace() gives: the same contacts.
+// The face patch read an unwritten point before.
+TEST(ConvexBadInput, ASupportFaceWithNoPointIsTheSupportPoint) {
+  struct Ball : SupportShape {
+    Vec3 support(const Vec3& d) const override { return 0.3 * d.normalized(); }
+    double margin() const override { return 0.02; }
+  };
+  struct NoFace final : Ball {
+    int supportFace(const Vec3&, Vec3*) const override { return 0; }
+  };
+  // A terrain: neighbouring face patches have other normals, so a point
+  // left over from the previous one is not the right one by chance.
+  const TriangleMesh floor = testing::buildMesh(scenes::sineTerrain(16, 16, 0.5, 0.3, 2.0, 4));
+  scenes::Rng rng(5);
+  QueryScratch scratch;
+  std::vector<Contact> a, b;
+  int touching = 0;
+  for (int i = 0; i < 200; ++i) {
+    Pose pose = randomPose(rng, 1.0);
+    pose.translation = Vec3(rng.uniform(1, 7), rng.uniform(1, 7), rng.uniform(0.0, 0.6));
+    ASSERT_TRUE(collideConvex(floor, Ball(), pose, QuerySettings(), scratch, a).isOk());
+    ASSERT_TRUE(collideConvex(floor, NoFace(), pose, QuerySettings(), scratch, b).isOk());
+    ASSERT_EQ(a.size(), b.size()) << "pose " << i;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      EXPECT_EQ(a[k].point, b[k].point) << "pose " << i;
+      EXPECT_EQ(a[k].depth, b[k].depth) << "pose " << i;
+    }
+    touching += !a.empty();
+  }
+  EXPECT_GT(touching, 50);
+}
+
 TEST(ConvexMargin, HullCoreStaysInsideAndKeepsTheFaces) {
   struct Case {
     const char* name;

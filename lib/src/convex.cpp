@@ -149,8 +149,9 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   for (const Vec3& p : points) height = std::max(height, std::abs(normal.dot(p - p0)));
   if (!(height > tol)) return {ErrorCode::kInvalidShape, "convex hull points are coplanar: the hull has no volume"};
 
-  // Face planes, relative to the centroid (an interior point: the mean of a
-  // point set that spans a volume lies inside its hull).
+  // Face planes, relative to an interior point: first the mean of the
+  // points (a point set that spans a volume holds its mean inside its hull),
+  // then the hull's volume centroid (below), and the planes again about it.
   Vec3 centroid = Vec3::Zero();
   for (const Vec3& p : points) centroid += p;
   centroid /= static_cast<double>(points.size());
@@ -159,6 +160,62 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   std::vector<detail::HullPlane> planes;
   if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, planes))
     return {ErrorCode::kInvalidShape, "convex hull points are (nearly) coplanar: the hull has no volume"};
+  // The center (the point the core shrinks toward under deep penetration)
+  // and the inradius (the automatic margin's scale) are the hull's, not the
+  // point set's: points on a face (allowed, and dropped) pulled the mean
+  // toward that face, and a cube given with 81 points on its bottom face had
+  // its center 0.045 above that face and a margin a tenth of the plain
+  // cube's, and fell through a floor it sank into by 0.05. The volume
+  // centroid: the pyramids from the mean to each face, each face a fan of
+  // triangles over its vertices (the hull's vertices on it, the points on
+  // three planes or more, in angular order; a face's other points would make
+  // the fan a star).
+  {
+    const auto onPlane = [&](const detail::HullPlane& f, const Vec3& p) {
+      return f.normal.dot(p) - f.offset >= -1e-9 * diameter;
+    };
+    std::vector<Vec3> vertices;
+    for (const Vec3& p : local) {
+      int on = 0;
+      for (const detail::HullPlane& f : planes) on += onPlane(f, p);
+      if (on >= 3) vertices.push_back(p);
+    }
+    Vec3 moment = Vec3::Zero();
+    double volume = 0.0;
+    std::vector<std::pair<double, Vec3>> ring;
+    std::vector<Vec3> on;
+    for (const detail::HullPlane& f : planes) {
+      ring.clear();
+      on.clear();
+      const Vec3 u = f.normal.unitOrthogonal(), w = f.normal.cross(u);
+      Vec3 mid = Vec3::Zero();
+      for (const Vec3& p : vertices)
+        if (onPlane(f, p)) on.push_back(p), mid += p;
+      if (on.size() < 3) continue;
+      mid /= static_cast<double>(on.size());
+      for (const Vec3& p : on) ring.emplace_back(std::atan2(w.dot(p - mid), u.dot(p - mid)), p);
+      std::sort(ring.begin(), ring.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (std::size_t i = 0; i < ring.size(); ++i) {
+        // The tetrahedron (mean, mid, ring[i], ring[i + 1]): its volume is
+        // |det| / 6 (the mean, the origin here, is inside; points along the
+        // face's edges add slivers of zero volume).
+        const Vec3& a = ring[i].second;
+        const Vec3& b = ring[(i + 1) % ring.size()].second;
+        const double v = std::abs(mid.dot(a.cross(b))) / 6.0;
+        volume += v;
+        moment += v * (mid + a + b) / 4.0;
+      }
+    }
+    if (volume > 0.0 && (moment / volume).allFinite()) {
+      const Vec3 shift = moment / volume;
+      centroid += shift;
+      for (Vec3& p : local) p -= shift;
+      std::vector<detail::HullPlane> recentred;
+      if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, recentred))
+        return {ErrorCode::kInvalidShape, "convex hull points are (nearly) coplanar: the hull has no volume"};
+      planes = std::move(recentred);
+    }
+  }
   double inradius = std::numeric_limits<double>::infinity();
   for (const detail::HullPlane& f : planes) inradius = std::min(inradius, f.offset);
   if (!(inradius > tol))
@@ -1049,7 +1106,11 @@ struct ConvexNarrowphase {
     p.normal = n;
     Vec3 local[SupportShape::kMaxFacePoints];
     int k = shape->supportFace(pose.rotation.transpose() * -n, local);
-    k = std::max(1, std::min(k, SupportShape::kMaxFacePoints));
+    if (k < 1) {  // against its contract (1..kMaxFacePoints): its support point, not an unwritten one
+      local[0] = shape->support(pose.rotation.transpose() * -n);
+      k = 1;
+    }
+    k = std::min(k, SupportShape::kMaxFacePoints);
     const Vec3 e1 = (tri[1] - a).normalized();
     const Vec3 e2 = n.cross(e1);
     detail::FacePoint poly[SupportShape::kMaxFacePoints];
@@ -1067,12 +1128,15 @@ struct ConvexNarrowphase {
     }
     if (k >= 3) k = detail::convexHull2d(poly, k);
     double tri2d[3][2];
+    double magnitude = 0.0;
     for (int i = 0; i < 3; ++i) {
       tri2d[i][0] = e1.dot(tri[i] - a);
       tri2d[i][1] = e2.dot(tri[i] - a);
+      magnitude = std::max(magnitude, tri[i].cwiseAbs().maxCoeff());
     }
+    for (int i = 0; i < k; ++i) magnitude = std::max(magnitude, poly[i].p.cwiseAbs().maxCoeff());
     detail::FacePoint clipped[detail::kMaxClipPoints];
-    const int m = detail::clipToTriangle(poly, k, tri2d, clipped);
+    const int m = detail::clipToTriangle(poly, k, tri2d, magnitude, clipped);
     Vec3 points[detail::kMaxClipPoints + 1];
     double depths[detail::kMaxClipPoints + 1];
     int count = 0;

@@ -49,7 +49,20 @@ inline int convexHull2d(FacePoint* points, int count) {
 /// Clips the convex polygon `poly` (CCW, `count` points; 1 = a point, 2 = a
 /// segment) to the CCW triangle tri2d (x, y pairs). Writes to `out`
 /// (capacity kMaxClipPoints), returns the count (0 = no overlap).
-inline int clipToTriangle(const FacePoint* poly, int count, const double tri2d[3][2], FacePoint* out) {
+/// `magnitude`: the largest |coordinate| of the 3D points that the 2D ones
+/// were computed from (the shape's and the triangle's), the scale of their
+/// rounding. A point or segment end within rounding of an edge's line counts
+/// as on it (inside): a segment lying along an internal edge (a cylinder on
+/// its side over the diagonal of a rotated floor) has both ends' values at
+/// rounding noise of either sign, and clipping at their ratio cut it at an
+/// arbitrary point, or away, on both triangles of the edge. The bound: the
+/// 2D coordinates are within a few ulps of max(|q - a|, magnitude), the
+/// edge's components likewise; 2^-40 of |e|_1 (|q - p|_1 + magnitude)
+/// covers the side value's error. (Faces of 3 points or more are clipped
+/// exactly: a corner's noise moves the point the clip puts next to it by as
+/// little.)
+inline int clipToTriangle(const FacePoint* poly, int count, const double tri2d[3][2], double magnitude,
+                          FacePoint* out) {
   FacePoint buffer[2][kMaxClipPoints];
   int n = std::min(count, kMaxClipPoints);
   for (int i = 0; i < n; ++i) buffer[0][i] = poly[i];
@@ -70,18 +83,29 @@ inline int clipToTriangle(const FacePoint* poly, int count, const double tri2d[3
       r.y = a.y + t * (b.y - a.y);
       return r;
     };
+    // The side value, 0 within its rounding (see above).
+    auto roundedSide = [&](const FacePoint& q) {
+      const double v = side(q);
+      const double noise =
+          0x1p-40 * (std::abs(ex) + std::abs(ey)) * (std::abs(q.x - px) + std::abs(q.y - py) + magnitude);
+      return std::abs(v) <= noise ? 0.0 : v;
+    };
     if (n == 1) {
-      if (side(in[0]) >= 0.0) next[m++] = in[0];
+      if (roundedSide(in[0]) >= 0.0) next[m++] = in[0];
     } else if (n == 2) {  // a segment: clip its two ends
-      const double s0 = side(in[0]), s1 = side(in[1]);
+      const double s0 = roundedSide(in[0]), s1 = roundedSide(in[1]);
       if (s0 >= 0.0 && s1 >= 0.0) {
         next[m++] = in[0];
         next[m++] = in[1];
-      } else if (s0 >= 0.0) {
+      } else if (s0 > 0.0) {
         next[m++] = in[0];
         next[m++] = lerp(in[0], in[1], s0, s1);
-      } else if (s1 >= 0.0) {
+      } else if (s1 > 0.0) {
         next[m++] = lerp(in[0], in[1], s0, s1);
+        next[m++] = in[1];
+      } else if (s0 == 0.0) {  // touching the line at one end: that end alone
+        next[m++] = in[0];
+      } else if (s1 == 0.0) {
         next[m++] = in[1];
       }
     } else {  // Sutherland-Hodgman

@@ -204,8 +204,9 @@ class ConvexHull final : public SupportShape {
   const std::vector<Vec3>& points() const { return points_; }
   /// The core's points (local frame): one per hull vertex.
   const std::vector<Vec3>& corePoints() const { return core_; }
-  /// Smallest distance from the centroid of the points (center()) to a face
-  /// plane: the scale of the automatic margin.
+  /// Smallest distance from the hull's volume centroid (center()) to a face
+  /// plane: the scale of the automatic margin. (Not the points' mean: points
+  /// on a face would pull it toward that face.)
   double inradius() const { return inradius_; }
 
   Vec3 support(const Vec3& direction) const override;
