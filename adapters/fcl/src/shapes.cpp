@@ -128,6 +128,10 @@ Status EllipsoidShape::validate() const {
 
 Vec3 FclConvexShape::support(const Vec3& d) const {
   const std::vector<::fcl::Vector3d>& v = *vertices_;
+  // No vertex (FCL builds without assertions accept an empty Convex): not
+  // finite, which the query reports as kInvalidShape (the query volume asks
+  // for support points before validate() runs).
+  if (v.empty()) return Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   std::size_t best = 0;
   double best_h = v[0].dot(d);
   for (std::size_t i = 1; i < v.size(); ++i) {
