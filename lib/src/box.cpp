@@ -672,9 +672,17 @@ struct BoxNarrowphase {
     const Vec3 m[3] = {n.cross(edges[0]), n.cross(edges[1]), n.cross(edges[2])};
     Polygon poly;
 
-    // 3. Apart: the exact closest pair and its triangle feature.
-    if (separation >= 0.0) {
-      const ClosestPair pair = closestPair(v, n, m, e, tie);
+    // 3. Apart: the exact closest pair and its triangle feature. Touching to
+    // round-off (the axes' gaps are 0 +- noise), the pair's features are
+    // chosen on noise and may be the wrong ones, which the pair's distance
+    // then shows: beyond reach while every axis says touching. That pair is
+    // not taken: the triangle is treated as intersecting (4.), which is
+    // what it is to round-off. (A box set down exactly on a yawed floor
+    // found a vertical box edge against a triangle edge 0.04 away, and got
+    // no contact.)
+    const ClosestPair pair = separation >= 0.0 ? closestPair(v, n, m, e, tie) : ClosestPair();
+    const bool touching_by_noise = separation >= 0.0 && separation <= flat && pair.d > reach();
+    if (separation >= 0.0 && !touching_by_noise) {
       patch.distance = pair.d;
       if (pair.d > reach()) return PatchOutcome::kBeyondContactDistance;
       patch.feature = pair.feature;
@@ -691,8 +699,12 @@ struct BoxNarrowphase {
           if (std::abs(N[k]) > std::abs(N[i])) i = k;
         if (1.0 - std::abs(N[i]) <= 1e-12) {  // a box face facing the edge / vertex
           N = Vec3::Zero();
-          // Touching (b == t): the side the triangle faces, never its back.
-          N[i] = pair.b[i] != pair.t[i] ? (pair.b[i] > pair.t[i] ? 1.0 : -1.0) : (n[i] >= 0.0 ? 1.0 : -1.0);
+          // Touching (b == t, or b - t within round-off, whose sign is
+          // noise): the side the triangle faces, never its back. (Taken
+          // from the noise, it put the contact on the box's far face, the
+          // normal into the mesh and the depth at the box's thickness.)
+          N[i] = pair.d > flat && pair.b[i] != pair.t[i] ? (pair.b[i] > pair.t[i] ? 1.0 : -1.0)
+                                                         : (n[i] >= 0.0 ? 1.0 : -1.0);
           referenceFace(v, i, N[i], e, poly);
         } else {
           poly.pts[0] = pair.b;
@@ -865,8 +877,12 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   if (!s) return s;
   const BoxNarrowphase narrowphase = makeNarrowphase(box, pose, settings);
   QueryScratch::Impl& sc = scratch.impl();
-  // The rotated box's bounds, inflated by the contact distance.
-  const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(settings.contact_distance);
+  // The rotated box's bounds, inflated by the narrowphase's reach (the
+  // contact distance and round-off): a box set down exactly on a floor at
+  // z = 0 under a yaw has |R|(2,2) = 1 - 1e-16, and bounds inflated by the
+  // contact distance alone (0) stopped 5e-17 above the floor: no triangle
+  // was gathered, and the box got no contact.
+  const Vec3 half = pose.rotation.cwiseAbs() * box.half_extents + Vec3::Constant(narrowphase.reach());
   const Vec3 lo = pose.translation - half, hi = pose.translation + half;
   detail::VertexIdentity identity;
   if (settings.trace)  // the trace lists every triangle of the bounds, with its verdict
