@@ -129,19 +129,31 @@ struct Axis {
 
 // Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman).
 // Each vertex's signed distance is computed once and carried to the next
-// edge, where it is that edge's start (the same value either way).
-int clipPolygon(const Vec3* in, int count, const Vec3& plane, double offset, Vec3* out) {
+// edge, where it is that edge's start (the same value either way). A value
+// within `noise` of 0 is 0 (on the plane, kept): a polygon edge lying along
+// the plane (a box face's edge over a triangle's edge: a box on a grid
+// whose cells it covers) has values of rounding noise of either sign, and
+// clipping at their ratio put a point mid-edge in place of a corner.
+int clipPolygon(const Vec3* in, int count, const Vec3& plane, double offset, double noise, Vec3* out) {
   if (count == 0) return 0;
   int n = 0;
-  const double d0 = plane.dot(in[0]) + offset;
+  const auto value = [&](const Vec3& x) {
+    const double d = plane.dot(x) + offset;
+    return std::abs(d) <= noise ? 0.0 : d;
+  };
+  const double d0 = value(in[0]);
   double da = d0;
   for (int i = 0; i < count; ++i) {
     const Vec3& a = in[i];
     const bool last = i + 1 == count;
     const Vec3& b = last ? in[0] : in[i + 1];
-    const double db = last ? d0 : plane.dot(b) + offset;
+    const double db = last ? d0 : value(b);
     if (da >= 0.0) out[n++] = a;
-    if ((da >= 0.0) != (db >= 0.0)) out[n++] = a + (da / (da - db)) * (b - a);
+    // Only a strict crossing adds a point: an end on the plane (0) is that
+    // point already, kept as a or as the next edge's a. (Added again, a
+    // corner of the box over a mesh vertex came out twice, and the two
+    // copies took two of a patch's four places from a real corner.)
+    if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) out[n++] = a + (da / (da - db)) * (b - a);
     da = db;
   }
   return n;
@@ -258,7 +270,11 @@ DeepestOver deepestOverTriangle(const Vec3 v[3], const Vec3& n, const Vec3 m[3],
     double lo = -kInf, hi = kInf;
     bool empty = false;
     for (int i = 0; i < 3 && !empty; ++i) {
-      if (n[i] == 0.0) {
+      // Parallel to face pair i, to round-off: dividing by an n_i of noise
+      // gave a bound of noise over noise where the line runs along a face (a
+      // mesh vertex under a box corner), and a point part-way up the box's
+      // edge, at depth 0, that took a real corner's place in the patch.
+      if (std::abs(n[i]) <= 1e-12) {
         empty = std::abs(v[k][i]) > e[i];
         continue;
       }
@@ -343,7 +359,7 @@ bool envelopeMinimum(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3
     poly.count = 4;
     for (int q = 0; q < 3 && poly.count > 0; ++q) {
       Vec3* out = poly.spare();
-      poly.count = clipPolygon(poly.pts, poly.count, m[q], -m[q].dot(v[q]), out);
+      poly.count = clipPolygon(poly.pts, poly.count, m[q], -m[q].dot(v[q]), flat * m[q].norm(), out);
       poly.pts = out;
     }
     for (int c = 0; c < poly.count; ++c) {
@@ -371,7 +387,7 @@ bool envelopeMinimum(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3
 
 // The box face most anti-parallel to n (the incident face) clipped to the
 // triangle's prism; depths are how far below the plane.
-void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, Polygon& poly) {
+void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e, double flat, Polygon& poly) {
   int i = 0;
   for (int k = 1; k < 3; ++k)
     if (std::abs(n[k]) > std::abs(n[i])) i = k;
@@ -387,7 +403,7 @@ void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e
   poly.count = 4;
   for (int s = 0; s < 3 && poly.count > 0; ++s) {  // inward edge planes of the triangle
     Vec3* out = poly.spare();
-    poly.count = clipPolygon(poly.pts, poly.count, m[s], -m[s].dot(v[s]), out);
+    poly.count = clipPolygon(poly.pts, poly.count, m[s], -m[s].dot(v[s]), flat * m[s].norm(), out);
     poly.pts = out;
   }
   for (int c = 0; c < poly.count; ++c) poly.depth[c] = n.dot(v[0] - poly.pts[c]);
@@ -396,7 +412,7 @@ void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e
 // The triangle clipped to the side planes of the box face with outward
 // normal -s u_i (at x_i = -s e_i, s = +-1), projected onto that face; depths
 // are how far inside the face the triangle's points are.
-void referenceFace(const Vec3 v[3], int i, double s, const Vec3& e, Polygon& poly) {
+void referenceFace(const Vec3 v[3], int i, double s, const Vec3& e, double flat, Polygon& poly) {
   poly.pts = poly.buffer[0];
   for (int c = 0; c < 3; ++c) poly.pts[c] = v[c];
   poly.count = 3;
@@ -404,7 +420,7 @@ void referenceFace(const Vec3 v[3], int i, double s, const Vec3& e, Polygon& pol
     const int j = (i + 1 + side / 2) % 3;
     const double sgn = side % 2 == 0 ? -1.0 : 1.0;  // keep sgn * x_j + e_j >= 0
     Vec3* out = poly.spare();
-    poly.count = clipPolygon(poly.pts, poly.count, sgn * Vec3::Unit(j), e[j], out);
+    poly.count = clipPolygon(poly.pts, poly.count, sgn * Vec3::Unit(j), e[j], flat, out);
     poly.pts = out;
   }
   for (int c = 0; c < poly.count; ++c) {
@@ -688,7 +704,7 @@ struct BoxNarrowphase {
       patch.feature = pair.feature;
       Vec3 N = n;
       if (pair.feature.type == FeatureType::kFace) {
-        incidentFace(v, n, m, e, poly);
+        incidentFace(v, n, m, e, flat, poly);
         poly.pts[poly.count] = pair.b;  // may lie off the incident face
         poly.depth[poly.count++] = -pair.d;
       } else {
@@ -705,7 +721,7 @@ struct BoxNarrowphase {
           // normal into the mesh and the depth at the box's thickness.)
           N[i] = pair.d > flat && pair.b[i] != pair.t[i] ? (pair.b[i] > pair.t[i] ? 1.0 : -1.0)
                                                          : (n[i] >= 0.0 ? 1.0 : -1.0);
-          referenceFace(v, i, N[i], e, poly);
+          referenceFace(v, i, N[i], e, flat, poly);
         } else {
           poly.pts[0] = pair.b;
           poly.depth[0] = -pair.d;
@@ -724,7 +740,7 @@ struct BoxNarrowphase {
     for (int k = 0; k < 3 && owned; ++k) owned = m[k].dot(s - v[k]) >= -flat * std::sqrt(edges[k].squaredNorm());
     const auto own = [&]() {
       patch.feature = Feature::face();
-      incidentFace(v, n, m, e, poly);
+      incidentFace(v, n, m, e, flat, poly);
       if (!finish(poly, n, patch)) {  // not expected: s lies on the incident face, over the triangle
         patch.count = 1;
         patch.points[0] = pose.apply(s);
@@ -788,11 +804,11 @@ struct BoxNarrowphase {
     }
     const Vec3& N = best.N;
     if (best.kind == 0) {
-      incidentFace(v, n, m, e, poly);
+      incidentFace(v, n, m, e, flat, poly);
       poly.pts[poly.count] = deepest_point;
       poly.depth[poly.count++] = n_depth;
     } else if (best.kind == 1) {
-      referenceFace(v, best.box_axis, N[best.box_axis], e, poly);
+      referenceFace(v, best.box_axis, N[best.box_axis], e, flat, poly);
     } else {
       // Box edge along u_i that is lowest along N; triangle's highest feature along N.
       const int i = best.box_axis, j = best.edge;
