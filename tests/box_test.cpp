@@ -415,19 +415,11 @@ TEST(BoxFloor, SetDownExactlyOnAFloorTouches) {
   const std::uint32_t q2 = quad.addVertex(Vec3(8, 8, 0)), q3 = quad.addVertex(Vec3(0, 8, 0));
   quad.addTriangle(q0, q1, q2);
   quad.addTriangle(q0, q2, q3);
-  scenes::SceneMesh grid;
-  for (int y = 0; y <= 8; ++y)
-    for (int x = 0; x <= 8; ++x) grid.addVertex(Vec3(x, y, 0));
-  for (int y = 0; y < 8; ++y)
-    for (int x = 0; x < 8; ++x) {
-      const std::uint32_t v00 = y * 9 + x, v10 = v00 + 1, v01 = v00 + 9, v11 = v01 + 1;
-      grid.addTriangle(v00, v10, v11);
-      grid.addTriangle(v00, v11, v01);
-    }
+  const scenes::SceneMesh grid = testing::unitGrid(8);
   QueryScratch scratch;
   std::vector<Contact> contacts;
   int placements = 0, sideways_deep = 0;
-  for (const scenes::SceneMesh* floor : {&quad, &grid}) {
+  for (const scenes::SceneMesh* floor : {static_cast<const scenes::SceneMesh*>(&quad), &grid}) {
     const TriangleMesh mesh = testing::buildMesh(*floor);
     for (const double cd : {0.0, 0.01}) {
       scenes::Rng rng(17);
@@ -529,16 +521,7 @@ TEST(BoxFloor, CornersOverMeshVerticesAreKept) {
     const bool exact = i < 20;
     const Mat3 r = exact ? Mat3::Identity() : rng.rotation();
     const Vec3 offset = exact ? Vec3::Zero() : Vec3(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
-    scenes::SceneMesh grid;
-    for (int y = 0; y <= 4; ++y)
-      for (int x = 0; x <= 4; ++x) grid.addVertex(r * Vec3(x, y, 0) + offset);
-    for (int y = 0; y < 4; ++y)
-      for (int x = 0; x < 4; ++x) {
-        const std::uint32_t v00 = y * 5 + x, v10 = v00 + 1, v01 = v00 + 5, v11 = v01 + 1;
-        grid.addTriangle(v00, v10, v11);
-        grid.addTriangle(v00, v11, v01);
-      }
-    const TriangleMesh mesh = testing::buildMesh(grid);
+    const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(4, r, offset));
     const Vec3 e(0.5, 0.5, 0.2);
     const Vec3 cell(1.5 + (rng.next() % 2), 1.5 + (rng.next() % 2), e.z() - 0.05);
     const Pose pose = poseFrom(r, r * cell + offset);

@@ -622,16 +622,7 @@ TEST(CapsuleFloor, AlongADiagonalKeepsBothEnds) {
   for (int i = 0; i < 2000; ++i) {
     const Mat3 r = rng.rotation();
     const Vec3 offset(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
-    SceneMesh grid;  // unit cells, each split along its (0,0)-(1,1) diagonal
-    for (int y = 0; y <= kCells; ++y)
-      for (int x = 0; x <= kCells; ++x) grid.addVertex(r * Vec3(x, y, 0) + offset);
-    for (int y = 0; y < kCells; ++y)
-      for (int x = 0; x < kCells; ++x) {
-        const std::uint32_t v00 = y * (kCells + 1) + x, v10 = v00 + 1, v01 = v00 + kCells + 1, v11 = v01 + 1;
-        grid.addTriangle(v00, v10, v11);
-        grid.addTriangle(v00, v11, v01);
-      }
-    const TriangleMesh mesh = testing::buildMesh(grid);
+    const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(kCells, r, offset));
     const Capsule cap{0.1, 0.5};
     const double along = rng.uniform(1.5, 4.5);  // the centre, on the grid's main diagonal
     const Vec3 normal = r.col(2);

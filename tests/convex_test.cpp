@@ -793,17 +793,7 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
   for (int deg = 1; deg < 360; deg += 2) {
     const Mat3 r = Eigen::AngleAxisd(deg * M_PI / 180, Vec3(1, 2, 3).normalized()).toRotationMatrix();
     const Vec3 offset(0.3, 0.7, -1.1);
-    SceneMesh grid;
-    constexpr int kCells = 6;
-    for (int y = 0; y <= kCells; ++y)
-      for (int x = 0; x <= kCells; ++x) grid.addVertex(r * Vec3(x, y, 0) + offset);
-    for (int y = 0; y < kCells; ++y)
-      for (int x = 0; x < kCells; ++x) {
-        const std::uint32_t v00 = y * (kCells + 1) + x, v10 = v00 + 1, v01 = v00 + kCells + 1, v11 = v01 + 1;
-        grid.addTriangle(v00, v10, v11);
-        grid.addTriangle(v00, v11, v01);
-      }
-    const TriangleMesh mesh = testing::buildMesh(grid);
+    const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(6, r, offset));
     const Vec3 n = r.col(2), axis = (r * Vec3(1, 1, 0)).normalized();
     const auto span = [&](const Pose& pose, double half_line, const std::string& what) {
       double lo = INFINITY, hi = -INFINITY;

@@ -83,6 +83,24 @@ inline std::string str(const Vec3& v) {
   return s.str();
 }
 
+/// A planar grid of `cells` x `cells` unit cells, each split along its
+/// (0,0)-(1,1) diagonal, moved by `r` and `offset`: exact cells (no jitter,
+/// unlike scenes::flatFloor), so that a shape can be laid along a diagonal,
+/// an edge or over a vertex, and the grid turned anywhere in space.
+inline scenes::SceneMesh unitGrid(int cells, const Mat3& r = Mat3::Identity(), const Vec3& offset = Vec3::Zero()) {
+  scenes::SceneMesh grid;
+  for (int y = 0; y <= cells; ++y)
+    for (int x = 0; x <= cells; ++x) grid.addVertex(r * Vec3(x, y, 0) + offset);
+  for (int y = 0; y < cells; ++y)
+    for (int x = 0; x < cells; ++x) {
+      const auto v00 = static_cast<std::uint32_t>(y * (cells + 1) + x), v10 = v00 + 1;
+      const auto v01 = static_cast<std::uint32_t>(v00 + cells + 1), v11 = v01 + 1;
+      grid.addTriangle(v00, v10, v11);
+      grid.addTriangle(v00, v11, v01);
+    }
+  return grid;
+}
+
 /// Builds a mesh or fails the test with the build's message.
 inline TriangleMesh buildMesh(const scenes::SceneMesh& m) {
   TriangleMesh mesh;
