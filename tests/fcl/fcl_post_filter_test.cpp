@@ -82,6 +82,23 @@ TEST(PostFilter, SphereAtInternalEdgesKeepsTheFaceContact) {
   }
 }
 
+// The cleaned contacts as the sphere oracle takes them: normals in the mesh
+// frame, from the mesh toward the sphere, whichever argument order.
+std::vector<Contact> inMeshFrame(const ::fcl::CollisionResultd& cleaned, const Pose& mesh_pose, bool mesh_first) {
+  std::vector<Contact> in_mesh;
+  for (const auto& c : contactsOf(cleaned)) {
+    Contact m;
+    m.normal = mesh_pose.rotation.transpose() * (mesh_first ? c.normal : Vec3(-c.normal));
+    in_mesh.push_back(m);
+  }
+  return in_mesh;
+}
+
+std::string spherePose(const std::string& what, int i, double r, const Pose& local, bool mesh_first) {
+  return what + " pose " + std::to_string(i) + ": radius " + std::to_string(r) + ", centre in the mesh frame " +
+         testing::str(local.translation) + (mesh_first ? " (mesh, sphere)" : " (sphere, mesh)");
+}
+
 // Random spheres on the scenes, scored by the exact sphere oracle: no ghost,
 // and a contact whenever FCL reported one. The cleaned result is also
 // compared with the drop-in's (the same exact narrowphase and filter, so
@@ -118,9 +135,7 @@ void spheres(fcl::PostFilterMode mode) {
       fcl::Report pr, dr;
       ASSERT_TRUE(fcl::postFilter(&o1, &o2, request, raw, cleaned, options, scratch, &pr).isOk());
       ASSERT_TRUE(fcl::collide(&o1, &o2, request, dropin, fcl::Options(), scratch, &dr).isOk());
-      const std::string config = std::string(name) + " pose " + std::to_string(i) + ": radius " + std::to_string(r) +
-                                 ", centre in the mesh frame " + testing::str(local.translation) +
-                                 (mesh_first ? " (mesh, sphere)" : " (sphere, mesh)");
+      const std::string config = spherePose(name, i, r, local, mesh_first);
       ++poses;
       if (pr.through_contacts || dr.through_contacts) continue;  // behind the surface: not the oracle's domain
       for (const auto& c : contactsOf(raw))
@@ -129,13 +144,8 @@ void spheres(fcl::PostFilterMode mode) {
       // unless FCL left out a triangle within reach (FCL 0.7 misses some,
       // DESIGN.md §4).
       same_as_dropin += compareContacts(contactsOf(cleaned), contactsOf(dropin), 1e-12).empty();
-      std::vector<Contact> in_mesh;
-      for (const auto& c : contactsOf(cleaned)) {
-        EXPECT_GT(c.penetration_depth, -1e-12) << config;
-        Contact m;
-        m.normal = mesh_pose.rotation.transpose() * (mesh_first ? c.normal : Vec3(-c.normal));
-        in_mesh.push_back(m);
-      }
+      for (const auto& c : contactsOf(cleaned)) EXPECT_GT(c.penetration_depth, -1e-12) << config;
+      const std::vector<Contact> in_mesh = inMeshFrame(cleaned, mesh_pose, mesh_first);
       with_contacts += !in_mesh.empty();
       const auto score = scenes::SphereOracle::score(oracle.validNormals(local.translation, r), in_mesh);
       if (recompute) {
@@ -183,9 +193,7 @@ void spheresOnEachBv(const char* bv_name) {
     const ::fcl::CollisionObjectd& o2 = mesh_first ? sphere : mesh;
     const ::fcl::CollisionRequestd request(1000, true);
     const ::fcl::CollisionResultd raw = fclRaw(o1, o2, request);
-    const std::string config = std::string(bv_name) + " pose " + std::to_string(i) + ": radius " +
-                               std::to_string(r) + ", centre in the mesh frame " + testing::str(local.translation) +
-                               (mesh_first ? " (mesh, sphere)" : " (sphere, mesh)");
+    const std::string config = spherePose(bv_name, i, r, local, mesh_first);
     for (const auto& c : contactsOf(raw)) foreign_model += c.o1 != model.get() && c.o2 != model.get();
     ::fcl::CollisionResultd cleaned;
     fcl::Report report;
@@ -193,13 +201,8 @@ void spheresOnEachBv(const char* bv_name) {
     ASSERT_TRUE(s.isOk()) << config << ": " << s.message();
     if (raw.numContacts() == 0) continue;
     ++with_raw;
-    std::vector<Contact> in_mesh;
-    for (const auto& c : contactsOf(cleaned)) {
-      EXPECT_EQ(mesh_first ? c.o1 : c.o2, model.get()) << config;
-      Contact m;
-      m.normal = mesh_pose.rotation.transpose() * (mesh_first ? c.normal : Vec3(-c.normal));
-      in_mesh.push_back(m);
-    }
+    for (const auto& c : contactsOf(cleaned)) EXPECT_EQ(mesh_first ? c.o1 : c.o2, model.get()) << config;
+    const std::vector<Contact> in_mesh = inMeshFrame(cleaned, mesh_pose, mesh_first);
     EXPECT_FALSE(in_mesh.empty()) << "nothing valid may be dropped: " << config;
     EXPECT_EQ(scenes::SphereOracle::score(oracle.validNormals(local.translation, r), in_mesh).ghosts, 0) << config;
     if (::testing::Test::HasFailure()) return;
