@@ -170,16 +170,24 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   // triangles over its vertices (the hull's vertices on it, the points on
   // three planes or more, in angular order; a face's other points would make
   // the fan a star).
-  {
-    const auto onPlane = [&](const detail::HullPlane& f, const Vec3& p) {
-      return f.normal.dot(p) - f.offset >= -1e-9 * diameter;
-    };
+  // A point lies on a face plane to within 1e-9 of the diameter; the hull's
+  // vertices are the points on at least three of its (distinct) face
+  // planes: points inside, on a face or along an edge never support
+  // anything alone.
+  const auto onPlane = [&](const detail::HullPlane& f, const Vec3& p) {
+    return f.normal.dot(p) - f.offset >= -1e-9 * diameter;
+  };
+  const auto hullVertices = [&]() {
     std::vector<Vec3> vertices;
     for (const Vec3& p : local) {
       int on = 0;
       for (const detail::HullPlane& f : planes) on += onPlane(f, p);
       if (on >= 3) vertices.push_back(p);
     }
+    return vertices;
+  };
+  {
+    const std::vector<Vec3> vertices = hullVertices();
     Vec3 moment = Vec3::Zero();
     double volume = 0.0;
     std::vector<std::pair<double, Vec3>> ring;
@@ -230,15 +238,8 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
     m = margin;
   }
 
-  // The hull's vertices: the points on at least three of its (distinct)
-  // face planes; points inside, on a face or along an edge never support
-  // anything alone.
-  std::vector<Vec3> boundary;
-  for (const Vec3& p : local) {
-    int on = 0;
-    for (const detail::HullPlane& f : planes) on += f.normal.dot(p) - f.offset >= -1e-9 * diameter;
-    if (on >= 3) boundary.push_back(p);
-  }
+  // The hull's vertices about the centroid.
+  const std::vector<Vec3> boundary = hullVertices();
   std::vector<Vec3> core;
   if (m > 0.0) {
     // The inner parallel body Q = {x : n_f . x <= o_f - m} (every face plane
