@@ -69,6 +69,11 @@
 //     envelope is least over the triangle, and that depth (envelopeMinimum),
 //     which orders a plane's triangles so that each such edge is voided by
 //     the deeper neighbour across it.
+//     Such a patch also offers its face patch along n (as for N = n) to the
+//     filter as a stand-in: written in its place when a face contact in the
+//     same plane voids it (the surface goes on across the edge: a box sunk
+//     into a tessellated floor over a strip of this triangle narrower than
+//     its depth), never beside it when it is kept (voided_features.h).
 //  Points deeper than -contact distance are kept; more than 4:
 //  selectManifoldPoints (deepest, then largest area).
 #include "meshcontact/shapes.h"
@@ -524,8 +529,8 @@ struct BoxNarrowphase {
   double reach() const { return contact_distance + flat_; }
 
   // Keeps the points within the contact distance, at most 4 of them, and
-  // writes the patch in the query frame. False when none is left.
-  bool finish(Polygon& poly, const Vec3& N, detail::Patch& patch) const {
+  // writes them in the query frame. Returns how many (0: none left).
+  int keepPoints(Polygon& poly, const Vec3& N, Vec3 points[4], double depths[4]) const {
     int kept = 0;
     for (int c = 0; c < poly.count; ++c)
       if (poly.depth[c] >= -reach()) {
@@ -534,15 +539,23 @@ struct BoxNarrowphase {
         poly.depth[kept] = std::max(poly.depth[c], -contact_distance);
         ++kept;
       }
-    if (kept == 0) return false;
+    if (kept == 0) return 0;
     int keep[4];
-    patch.count = selectPatchPoints(poly, kept, N, keep);
-    double deepest = -kInf;
-    for (int c = 0; c < patch.count; ++c) {
-      patch.points[c] = pose.apply(poly.pts[keep[c]]);
-      patch.depths[c] = poly.depth[keep[c]];
-      deepest = std::max(deepest, poly.depth[keep[c]]);
+    const int count = selectPatchPoints(poly, kept, N, keep);
+    for (int c = 0; c < count; ++c) {
+      points[c] = pose.apply(poly.pts[keep[c]]);
+      depths[c] = poly.depth[keep[c]];
     }
+    return count;
+  }
+
+  // The patch's points (keepPoints), normal and distance. False when no
+  // point is left.
+  bool finish(Polygon& poly, const Vec3& N, detail::Patch& patch) const {
+    patch.count = keepPoints(poly, N, patch.points, patch.depths);
+    if (patch.count == 0) return false;
+    double deepest = -kInf;
+    for (int c = 0; c < patch.count; ++c) deepest = std::max(deepest, patch.depths[c]);
     patch.normal = queryFrameNormal(N);
     patch.distance = -deepest;
     return true;
@@ -803,10 +816,20 @@ struct BoxNarrowphase {
       return PatchOutcome::kDegenerate;
     }
     const Vec3& N = best.N;
+    // The face patch along n: the incident face clipped to the prism, and
+    // the deepest point over the triangle unless it is one of that
+    // polygon's vertices to round-off (a box corner over the triangle, found
+    // by both: once, as its two copies may map to one point of the query
+    // frame).
+    const auto facePolygon = [&](Polygon& face) {
+      incidentFace(v, n, m, e, flat, face);
+      for (int c = 0; c < face.count; ++c)
+        if ((face.pts[c] - deepest_point).cwiseAbs().maxCoeff() <= flat) return;
+      face.pts[face.count] = deepest_point;
+      face.depth[face.count++] = n_depth;
+    };
     if (best.kind == 0) {
-      incidentFace(v, n, m, e, flat, poly);
-      poly.pts[poly.count] = deepest_point;
-      poly.depth[poly.count++] = n_depth;
+      facePolygon(poly);
     } else if (best.kind == 1) {
       referenceFace(v, best.box_axis, N[best.box_axis], e, flat, poly);
     } else {
@@ -852,6 +875,25 @@ struct BoxNarrowphase {
     // The minimum inside the triangle: Phi's global one, so the triangle holds
     // s after all (within round-off).
     if (patch.feature.type == FeatureType::kFace) return own();
+    // Its stand-in, should a face contact in this face's plane void the edge
+    // or vertex (the filter checks): the face patch along n. So voided, the
+    // surface goes on across the feature (an internal edge): the tilted axis was
+    // least only because this triangle ends there (a box sunk by d over a
+    // strip of it narrower than d), and pushing along it would slide the
+    // box onto the neighbour, not out of the surface. The box's part over
+    // this triangle is still in the surface, and the neighbour's face patch
+    // is clipped to its own prism: without the stand-in, that part (a
+    // corner of a box sunk into a tessellated floor) had no point, and the
+    // box stood on a smaller polygon than its face. Kept (a boundary edge),
+    // the tilted patch stands alone: pushing a box beside a plate's edge up
+    // by its depth would pop it onto the plate.
+    if (n_depth >= -reach()) {
+      Polygon face;
+      facePolygon(face);
+      patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
+      patch.face_normal = queryFrameNormal(n);
+      patch.face_part_if_voided = true;
+    }
     return PatchOutcome::kContact;
   }
 };

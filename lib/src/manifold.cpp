@@ -37,13 +37,27 @@ int selectManifoldPoints(const Vec3* points, const double* depths, int count, co
       far = (points[i] - points[opposite]).squaredNorm(), a = i;
   keep[0] = a;
 
+  // Each choice below measures in the plane normal to `normal`, and a later
+  // point must beat the best so far by more than round-off (kTieMargin,
+  // relative): points at one place in that plane (a box's corner, and the
+  // point above it where its vertical edge crosses a neighbouring
+  // triangle's plane) tie, and the tie goes to the earlier, which the
+  // callers order deepest first. Compared in 3D, or on round-off, the
+  // shallower point took the corner's slot on 3 in 1,000 boxes sunk into a
+  // grid whose vertices are under their corners.
+  constexpr double kTieMargin = 1.0 + 1e-9;
+  const auto planar2 = [&](const Vec3& d) {
+    const double along = d.dot(normal);
+    return std::max(0.0, d.squaredNorm() - along * along);
+  };
+
   // Farthest from the deepest: the longest base for the area that follows.
   int b = -1;
   double best = 1e-9 * length_scale;
   best *= best;
   for (int i = 0; i < count; ++i) {
-    const double d2 = (points[i] - points[a]).squaredNorm();
-    if (d2 > best) best = d2, b = i;
+    const double d2 = planar2(points[i] - points[a]);
+    if (d2 > best * kTieMargin) best = d2, b = i;
   }
   if (b < 0) return 1;
   keep[1] = b;
@@ -55,7 +69,7 @@ int selectManifoldPoints(const Vec3* points, const double* depths, int count, co
   double signed_abc = 0.0;
   for (int i = 0; i < count; ++i) {
     const double s = ab.cross(points[i] - points[a]).dot(normal);
-    if (std::abs(s) > best_area) best_area = std::abs(s), c = i, signed_abc = s;
+    if (std::abs(s) > best_area * kTieMargin) best_area = std::abs(s), c = i, signed_abc = s;
   }
   if (c < 0) return 2;
   keep[2] = c;
@@ -74,7 +88,7 @@ int selectManifoldPoints(const Vec3* points, const double* depths, int count, co
       const Vec3& y = points[v[(e + 1) % 3]];
       gain = std::max(gain, -(y - x).cross(points[i] - x).dot(normal));
     }
-    if (gain > best_gain) best_gain = gain, d = i;
+    if (gain > best_gain * kTieMargin) best_gain = gain, d = i;
   }
   if (d < 0) return 3;
   keep[3] = d;

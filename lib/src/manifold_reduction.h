@@ -17,11 +17,12 @@ namespace meshcontact::detail {
 /// the one farthest from the point farthest from the deepest: an extreme
 /// point of the whole set), the farthest from it, the one spanning the
 /// largest triangle with those two, and the one adding the most area to
-/// that triangle (areas projected on the plane normal to `normal`). A point
-/// that adds no length (below 1e-9 * length_scale) or a negligible area
-/// (below 1e-3 of the current span, squared) is not added, so coincident or
-/// collinear points give 1 or 2. Ties go to the earlier point: the result
-/// depends only on the order the caller gives.
+/// that triangle (lengths and areas projected on the plane normal to the
+/// unit `normal`). A point that adds no length (below 1e-9 * length_scale)
+/// or a negligible area (below 1e-3 of the current span, squared) is not
+/// added, so coincident or collinear points give 1 or 2. Ties, to a
+/// relative 1e-9, go to the earlier point: the result depends only on the
+/// order the caller gives.
 int selectManifoldPoints(const Vec3* points, const double* depths, int count, const Vec3& normal,
                          double length_scale, int keep[4]);
 

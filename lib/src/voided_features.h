@@ -27,6 +27,11 @@
 //     kept or voided. It does not void the triangle in the first pass: that
 //     would void the triangle's own edge and lose a real edge contact (a
 //     core tilted over a cliff edge).
+//     A narrowphase may instead offer the face part as a stand-in only
+//     (Patch::face_part_if_voided, the box's: see box.cpp, step 5): written
+//     in place of a voided patch whose feature a face contact ranked before
+//     it in the same contact plane holds, dropped otherwise and with a kept
+//     patch.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -57,6 +62,10 @@ struct Patch {
   /// lies over the face's interior, in front of it and within reach. (Next
   /// to `count`: the filter's reset touches no extra cache line.)
   int face_count = 0;
+  /// The face part only stands in for a voided patch, and only where a face
+  /// contact in its plane holds the voided feature (see above); a kept patch
+  /// is written alone. (Reset with face_count.)
+  bool face_part_if_voided = false;
   Vec3 points[4];
   double depths[4] = {0, 0, 0, 0};
   Vec3 face_normal = Vec3::UnitZ();
@@ -140,6 +149,14 @@ class VoidedSet {
   /// The same for vertex key a (kVertex) or the edge of keys a and b (kEdge);
   /// false for the face.
   bool isVoidedBefore(FeatureType type, std::uint64_t a, std::uint64_t b, const SortItem& rank) const {
+    return isHeldBefore(type, a, b, rank, [](const SortItem&) { return true; });
+  }
+  /// Whether a triangle entered with a rank before `rank` and accepted by
+  /// `holder(its rank)` holds the vertex key a (kVertex) or the edge of keys
+  /// a and b (kEdge); false for the face.
+  template <class Holder>
+  bool isHeldBefore(FeatureType type, std::uint64_t a, std::uint64_t b, const SortItem& rank,
+                    Holder&& holder) const {
     if (type == FeatureType::kFace) return false;
     const std::uint32_t* head = heads_.find(a);
     if (head == nullptr) return false;
@@ -147,7 +164,8 @@ class VoidedSet {
     for (std::uint32_t t = *head; t != kNone;) {
       const Tri& tri = tris_[t];
       // Two distinct keys of one triangle always form one of its edges.
-      if ((vertex || tri.k[0] == b || tri.k[1] == b || tri.k[2] == b) && tri.rank < rank) return true;
+      if ((vertex || tri.k[0] == b || tri.k[1] == b || tri.k[2] == b) && tri.rank < rank && holder(tri.rank))
+        return true;
       t = tri.next[tri.k[0] == a ? 0 : tri.k[1] == a ? 1 : 2];
     }
     return false;
@@ -214,11 +232,13 @@ struct FilterScratch {
 inline constexpr std::size_t kPositionScanLimit = 48;
 
 /// Whether feature f of candidate c (a delayed contact, entered with rank
-/// `rank`) is held, by position, by a triangle entered before it (the
-/// VertexIdentity::kKeysOrPositions test for a patch the keys keep).
-/// `built` says whether s.voided_by_position is current for this query.
-inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch& s, Feature f,
-                             const CandidateTriangle& c, const SortItem& rank, bool& built) {
+/// `rank`) is held, by position, by a triangle entered before it and
+/// accepted by `holder(its rank)` (the VertexIdentity::kKeysOrPositions test
+/// for a patch the keys keep). `built` says whether s.voided_by_position is
+/// current for this query.
+template <class Holder>
+bool heldByPosition(const CandidateTriangle* candidates, FilterScratch& s, Feature f, const CandidateTriangle& c,
+                    const SortItem& rank, bool& built, Holder&& holder) {
   const Vec3& a = c.vertices[f.index];
   const Vec3& b = c.vertices[(f.index + 1) % 3];
   const bool vertex = f.type == FeatureType::kVertex;
@@ -226,7 +246,7 @@ inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch&
   if (entered <= kPositionScanLimit) {
     for (std::size_t i = 0; i < entered; ++i) {
       const SortItem& r = s.voided.rank(i);
-      if (!(r < rank)) continue;
+      if (!(r < rank) || !holder(r)) continue;
       const Vec3* v = candidates[s.patch_candidate[r.patch]].vertices;
       // Exact comparison, as position keys compare bits (finite corners;
       // -0 == +0): a among the corners, then b among them, as
@@ -255,7 +275,12 @@ inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch&
   const std::uint32_t* ka = s.position_ids.find(positionKey(a.data()));
   const std::uint32_t* kb = s.position_ids.find(positionKey(b.data()));
   if (ka == nullptr || kb == nullptr) return false;
-  return s.voided_by_position.isVoidedBefore(f.type, *ka, *kb, rank);
+  return s.voided_by_position.isHeldBefore(f.type, *ka, *kb, rank, holder);
+}
+
+inline bool voidedByPosition(const CandidateTriangle* candidates, FilterScratch& s, Feature f,
+                             const CandidateTriangle& c, const SortItem& rank, bool& built) {
+  return heldByPosition(candidates, s, f, c, rank, built, [](const SortItem&) { return true; });
 }
 
 inline Verdict contactVerdict(Feature f) {
@@ -301,10 +326,12 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
 
   // Pass 1: face contacts on the fly (§4a); edges and vertices delayed.
   std::uint32_t used = 0;
+  bool stand_ins = false;  // a delayed patch offers a stand-in
   for (std::size_t i = 0; i < count; ++i) {
     const CandidateTriangle& c = candidates[i];
     Patch& p = s.patches[used];
     p.face_count = 0;
+    p.face_part_if_voided = false;
     PatchOutcome outcome = narrowphase(c, p);
     // A NaN distance has no place in the §5 order (no rank before or after
     // it): never a contact, whatever the narrowphase (none is expected to
@@ -320,6 +347,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!filter && p.feature.type != FeatureType::kFace) narrowphase.finish(c, p);  // kept as it comes
     }
     const bool face = p.feature.type == FeatureType::kFace || !filter;
+    stand_ins |= !face && p.face_part_if_voided && p.face_count > 0;
     SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
     item.distance = p.distance;
     item.mesh = c.mesh;
@@ -332,13 +360,43 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   }
 
   // Pass 2: each delayed contact against the triangles ranked before it (§5).
+  // In the candidates' order, but in rank order when a patch offers a
+  // stand-in: whether a patch ranked before it has become a face must not
+  // depend on the midphase's order.
+  if (stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
   bool positions_built = false;
+  double cos_coplanar = 2.0;  // taken at the first face part offered as a stand-in
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
     bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
     if (!voided && identity == VertexIdentity::kKeysOrPositions)
       voided = voidedByPosition(candidates, s, p.feature, c, item, positions_built);
+    if (p.face_part_if_voided && p.face_count > 0) {
+      // A stand-in only where the surface goes on in the face's plane: a
+      // face contact ranked before this patch (of the first pass, or a
+      // stand-in: the patches are met in rank order then), its normal
+      // within manifold_angle_deg of this face's (one contact plane; at
+      // least round-off), holds the feature. Held only by a wall (a box
+      // beside a cliff, its centre over the ledge, the ledge's edge voided
+      // by the wall's face contacts) or by other delayed patches, the
+      // stand-in would push the box onto the ledge: none.
+      bool stand_in = false;
+      if (voided) {
+        if (cos_coplanar > 1.0)
+          cos_coplanar = std::min(std::cos(settings.manifold_angle_deg * (M_PI / 180.0)), 1.0 - 1e-12);
+        const Vec3 normal = p.face_normal;
+        const auto coplanar_face = [&](const SortItem& r) {
+          const Patch& q = s.patches[r.patch];
+          return q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= cos_coplanar;
+        };
+        const int i = p.feature.index;
+        stand_in = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);
+        if (!stand_in && identity == VertexIdentity::kKeysOrPositions)
+          stand_in = heldByPosition(candidates, s, p.feature, c, item, positions_built, coplanar_face);
+      }
+      if (!stand_in) p.face_count = 0;
+    }
     const bool face_only = voided && p.face_count > 0;
     if (face_only) {  // the patch becomes its face part
       p.feature = Feature::face();
