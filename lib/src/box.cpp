@@ -522,6 +522,9 @@ ClosestPair closestPair(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const V
 }
 
 struct BoxNarrowphase {
+  // Face parts (step 5's tilted patches) only stand in for voided patches.
+  static constexpr bool kFacePartsStandIn = true;
+
   Pose pose;           // box in the query frame
   Vec3 e;              // half extents
   double contact_distance;
@@ -905,7 +908,6 @@ struct BoxNarrowphase {
       facePolygon(face);
       patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
       patch.face_normal = queryFrameNormal(n);
-      patch.face_part_if_voided = true;
     }
     return PatchOutcome::kContact;
   }

@@ -27,11 +27,10 @@
 //     kept or voided. It does not void the triangle in the first pass: that
 //     would void the triangle's own edge and lose a real edge contact (a
 //     core tilted over a cliff edge).
-//     A narrowphase may instead offer the face part as a stand-in only
-//     (Patch::face_part_if_voided, the box's: see box.cpp, step 5): written
-//     in place of a voided patch whose feature a face contact ranked before
-//     it in the same contact plane holds, dropped otherwise and with a kept
-//     patch.
+//     A narrowphase may instead offer its face parts as stand-ins only
+//     (FacePartsStandIn, the box's: see box.cpp, step 5): written in place
+//     of a voided patch whose feature a face contact ranked before it in
+//     the same contact plane holds, dropped otherwise and with a kept patch.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -62,10 +61,6 @@ struct Patch {
   /// lies over the face's interior, in front of it and within reach. (Next
   /// to `count`: the filter's reset touches no extra cache line.)
   int face_count = 0;
-  /// The face part only stands in for a voided patch, and only where a face
-  /// contact in its plane holds the voided feature (see above); a kept patch
-  /// is written alone. (Reset with face_count.)
-  bool face_part_if_voided = false;
   Vec3 points[4];
   double depths[4] = {0, 0, 0, 0};
   Vec3 face_normal = Vec3::UnitZ();
@@ -86,6 +81,17 @@ template <class N, class = void>
 struct DefersEdgesAndVertices : std::false_type {};
 template <class N>
 struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesAndVertices>> : std::true_type {};
+
+/// A narrowphase whose face parts only stand in for voided patches (static
+/// constexpr bool kFacePartsStandIn = true; see the top of this file): a
+/// face part is written in place of a voided patch when a face contact
+/// ranked before it, its normal within manifold_angle_deg of the part's,
+/// holds the voided feature, and never beside a kept patch. A compile-time
+/// choice: the sphere's filter, which has no face parts, pays nothing.
+template <class N, class = void>
+struct FacePartsStandIn : std::false_type {};
+template <class N>
+struct FacePartsStandIn<N, std::enable_if_t<std::decay_t<N>::kFacePartsStandIn>> : std::true_type {};
 
 /// Where a contact's triangle stands in the §5 processing order: face
 /// contacts first (distance -inf: their order among themselves does not
@@ -310,6 +316,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
                       const QuerySettings& settings, VertexIdentity identity, FilterScratch& s,
                       std::vector<Contact>& contacts) {
   constexpr bool deferred = DefersEdgesAndVertices<Narrowphase>::value;
+  constexpr bool stand_in_parts = FacePartsStandIn<Narrowphase>::value;
   const bool filter = settings.filter == FilterMode::kVoidedFeatures;
   std::vector<TraceEntry>* trace = settings.trace;
   if (trace) trace->clear();
@@ -331,7 +338,6 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     const CandidateTriangle& c = candidates[i];
     Patch& p = s.patches[used];
     p.face_count = 0;
-    p.face_part_if_voided = false;
     PatchOutcome outcome = narrowphase(c, p);
     // A NaN distance has no place in the §5 order (no rank before or after
     // it): never a contact, whatever the narrowphase (none is expected to
@@ -347,7 +353,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!filter && p.feature.type != FeatureType::kFace) narrowphase.finish(c, p);  // kept as it comes
     }
     const bool face = p.feature.type == FeatureType::kFace || !filter;
-    stand_ins |= !face && p.face_part_if_voided && p.face_count > 0;
+    if constexpr (stand_in_parts) stand_ins |= !face && p.face_count > 0;
     SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
     item.distance = p.distance;
     item.mesh = c.mesh;
@@ -363,7 +369,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // In the candidates' order, but in rank order when a patch offers a
   // stand-in: whether a patch ranked before it has become a face must not
   // depend on the midphase's order.
-  if (stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
+  if (stand_in_parts && stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
   bool positions_built = false;
   double cos_coplanar = 2.0;  // taken at the first face part offered as a stand-in
   for (const SortItem& item : s.delayed) {
@@ -372,7 +378,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
     if (!voided && identity == VertexIdentity::kKeysOrPositions)
       voided = voidedByPosition(candidates, s, p.feature, c, item, positions_built);
-    if (p.face_part_if_voided && p.face_count > 0) {
+    if (stand_in_parts && p.face_count > 0) {
       // A stand-in only where the surface goes on in the face's plane: a
       // face contact ranked before this patch (of the first pass, or a
       // stand-in: the patches are met in rank order then), its normal
