@@ -545,6 +545,12 @@ TEST(CapsuleFigures, AlongASingleEdge) {
       ASSERT_NE(match, nullptr) << "no contact for the core point " << str(core);
       EXPECT_NEAR(match->depth, cap.radius - (core - on_edge).norm(), 1e-12);
     }
+    // The reduction keeps the three: the deepest (the crossing) inside the
+    // line, and both ends (it kept the deepest and one end: the capsule
+    // held on one side of its centre only).
+    std::vector<Contact> reduced;
+    ASSERT_TRUE(collideCapsule(mesh, cap, pose, QuerySettings(), scratch, reduced).isOk());
+    EXPECT_EQ(reduced.size(), 3u);
   }
   for (const double yaw_deg : {2.0, 10.0, 45.0, 90.0}) {
     const Vec3 axis(std::cos(yaw_deg * kDeg), std::sin(yaw_deg * kDeg), 0);

@@ -829,6 +829,70 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
   EXPECT_EQ(lines, 3 * 180);
 }
 
+// A cylinder on its side, and a box hull lying flat, along a roof's ridge
+// (the one edge between two 45-degree slopes), held 0.001 into it or 0.01
+// above it (contact distance 0.02): the core's line along the edge is a
+// line contact, 2 points under the core's ends over the edge, each the
+// margin minus its own distance to the edge. Turned by 2 or 10 degrees,
+// the cylinder's side crosses the edge at one point (1 contact), and the
+// hull's flat bottom still holds a line of it: 2 points where the edge
+// leaves the face. (The capsule's figure, CapsuleFigures.AlongASingleEdge;
+// the closest pair alone gave 1 point, at whichever end GJK met first, and
+// the shape pivoted about it.)
+TEST(ConvexFigures, AlongASingleEdge) {
+  SceneMesh roof;  // ridge along x from (-5, 0, 1) to (5, 0, 1), slopes down to y = +-1, z = 0
+  const std::uint32_t a = roof.addVertex(Vec3(-5, 0, 1)), b = roof.addVertex(Vec3(5, 0, 1));
+  const std::uint32_t c = roof.addVertex(Vec3(5, 1, 0)), d = roof.addVertex(Vec3(-5, 1, 0));
+  const std::uint32_t e = roof.addVertex(Vec3(5, -1, 0)), f = roof.addVertex(Vec3(-5, -1, 0));
+  roof.addTriangle(a, b, c);
+  roof.addTriangle(a, c, d);
+  roof.addTriangle(a, e, b);
+  roof.addTriangle(a, f, e);
+  const TriangleMesh mesh = testing::buildMesh(roof);
+  const CylinderShape cylinder(Cylinder{0.1, 1.0});
+  const ConvexHull hull = boxHull(Vec3(1.0, 0.1, 0.1));
+  QuerySettings settings;
+  settings.contact_distance = 0.02;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const SupportShape* shape : {static_cast<const SupportShape*>(&cylinder), static_cast<const SupportShape*>(&hull)}) {
+    const bool is_cylinder = shape == &cylinder;
+    const double m = shape->margin();
+    for (const double gap : {-0.001, 0.01}) {
+      for (const double yaw_deg : {0.0, 2.0, 10.0}) {
+        const Mat3 yaw = Eigen::AngleAxisd(yaw_deg * M_PI / 180, Vec3::UnitZ()).toRotationMatrix();
+        // The cylinder's axis (local z) along x; the hull's x along x.
+        const Mat3 local = is_cylinder ? Mat3(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY())) : Mat3::Identity();
+        Pose pose;
+        pose.rotation = yaw * local;
+        pose.translation = Vec3(0.3, 0, 1.0 + 0.1 + gap);
+        ASSERT_TRUE(collideConvex(mesh, *shape, pose, settings, scratch, contacts).isOk());
+        const std::string what = std::string(is_cylinder ? "cylinder" : "box hull") + " " + std::to_string(gap) +
+                                 " from the ridge, turned by " + std::to_string(yaw_deg) + " degrees";
+        for (const Contact& contact : contacts) {
+          EXPECT_LT(degreesBetween(contact.normal, Vec3::UnitZ()), 1e-6) << what;
+          EXPECT_NEAR(contact.depth, -gap, 1e-9) << what;
+        }
+        if (is_cylinder && yaw_deg != 0.0) {
+          ASSERT_EQ(contacts.size(), 1u) << what;
+          EXPECT_NEAR(contacts[0].point.x(), 0.3, 1e-5) << what;  // GJK on a curved core: ~5e-7
+          continue;
+        }
+        // The edge's part under the core: |x - 0.3| cos(yaw) <= 1 - m, and
+        // for the hull's face |x - 0.3| sin(yaw) <= 0.1 - m.
+        const double t = yaw_deg * M_PI / 180;
+        const double half = yaw_deg == 0.0 ? 1.0 - m : std::min((1.0 - m) / std::cos(t), (0.1 - m) / std::sin(t));
+        ASSERT_EQ(contacts.size(), 2u) << what;
+        for (const double x : {0.3 - half, 0.3 + half}) {
+          int found = 0;
+          for (const Contact& contact : contacts) found += std::abs(contact.point.x() - x) < 1e-9;
+          EXPECT_EQ(found, 1) << what << ": no contact under the core's end at x = " << x;
+        }
+      }
+    }
+  }
+}
+
 // A hull's center and inradius are the hull's own: points on its faces,
 // allowed and dropped, do not move them. A unit cube given with 81 more
 // points on its bottom face had its center 0.045 above that face and a
@@ -1447,7 +1511,7 @@ TEST(ConvexProjection, CylinderEdgeAndVertexContactsAreExact) {
   QueryScratch scratch;
   std::vector<Contact> contacts;
   double worst[2][2] = {{0, 0}, {0, 0}};  // [projection, GJK][depth / size, normal radians]
-  long checked = 0, queries = 0;
+  long checked = 0, queries = 0, line_ends = 0;
   for (const SceneMesh& scene : scenes_) {
     const TriangleMesh mesh = testing::buildMesh(scene);
     const Vec3 lo = mesh.boundsLo(), hi = mesh.boundsHi();
@@ -1462,8 +1526,28 @@ TEST(ConvexProjection, CylinderEdgeAndVertexContactsAreExact) {
       for (int method = 0; method < 2; ++method) {
         const SupportShape& shape = method == 0 ? static_cast<const SupportShape&>(cylinder) : gjk_only;
         ASSERT_TRUE(collideConvex(mesh, shape, pose, settings, scratch, contacts).isOk());
-        for (const Contact& c : contacts) {
+        for (std::size_t i = 0; i < contacts.size(); ++i) {
+          const Contact& c = contacts[i];
           if (c.feature.type == FeatureType::kFace) continue;
+          // An edge patch may also hold the ends of a line contact (a core
+          // lying along the edge), after the closest pair's point: each is
+          // the margin minus its own core point's distance to the edge,
+          // never deeper than the closest pair's (to the closest pair's
+          // accuracy: a relative 1e-9 of its distance, below).
+          std::size_t first = i;  // the patch's first point: the closest pair's
+          while (first > 0 && contacts[first - 1].triangle == c.triangle) --first;
+          if (first < i) {
+            const std::uint32_t* t = &scene.indices[3 * c.triangle];
+            const int k = c.feature.index;
+            ASSERT_EQ(c.feature.type, FeatureType::kEdge);
+            const Vec3 end = pose.applyInverse(c.point + m * c.normal);  // the core's point
+            const Vec3 a = pose.applyInverse(scene.vertex(t[k])), e = pose.applyInverse(scene.vertex(t[(k + 1) % 3])) - a;
+            const Vec3 w = end - (a + std::clamp((end - a).dot(e) / e.squaredNorm(), 0.0, 1.0) * e);
+            EXPECT_NEAR(c.depth, m - w.norm(), 1e-12 * size);
+            EXPECT_LE(c.depth, contacts[first].depth + 1e-9 * size);
+            ++line_ends;
+            continue;
+          }
           const std::uint32_t* t = &scene.indices[3 * c.triangle];
           const int k = c.feature.index;
           const Vec3 a = pose.applyInverse(scene.vertex(t[k]));
@@ -1483,9 +1567,9 @@ TEST(ConvexProjection, CylinderEdgeAndVertexContactsAreExact) {
       }
     }
   }
-  std::printf("edge and vertex contacts against the reference: %ld; projection: depth %.3g, normal %.3g rad; "
-              "GJK: depth %.3g, normal %.3g rad\n",
-              checked, worst[0][0], worst[0][1], worst[1][0], worst[1][1]);
+  std::printf("edge and vertex contacts against the reference: %ld (and %ld line ends); projection: depth %.3g, "
+              "normal %.3g rad; GJK: depth %.3g, normal %.3g rad\n",
+              checked, line_ends, worst[0][0], worst[0][1], worst[1][0], worst[1][1]);
   EXPECT_GT(checked, 3 * queries / 2);  // ~1.9 edge or vertex contacts per query
   // What the acceptance test guarantees (convex.h: the distance within a
   // relative 1e-9, at most 0.03 here, of a size of 0.64; the direction

@@ -754,6 +754,9 @@ struct ConvexNarrowphase {
   double scale;  // of the core about the center: 1, then smaller under deep penetration
   double radius; // of the core about the center (an upper bound)
   Counters* counters;
+  // Edge patches' line contacts (addLineEnds): the cosine of the settings'
+  // manifold angle.
+  double cos_manifold = 1.0;
   // A core that clearly meets the triangle is taken as intersecting without
   // running GJK, and the first pass notes the deeper passes that are
   // certainly void (crossingBits): the queries' setting; off, GJK decides
@@ -966,6 +969,8 @@ struct ConvexNarrowphase {
       p.count = 1;
       p.points[0] = g.point_a - margin * u;
       p.depths[0] = margin - d;
+      if constexpr (!kChecking)
+        if (p.feature.type == FeatureType::kEdge) addLineEnds(tri, p.feature.index, u, g.point_a, p);
       return PatchOutcome::kContact;
     }
     if (face) return facePatch(tri, n, low_full - margin * n, false, p);
@@ -1072,6 +1077,84 @@ struct ConvexNarrowphase {
     p.feature = q.feature;
     // Not v / d: below ~1e-154 |v|^2 goes subnormal and d loses its digits.
     return pointPatch(tri, normalizedOr(v, n), p);
+  }
+
+  // A core lying along the edge (a cylinder on its side along a ridge or a
+  // table's edge; a hull's edge, or a face across it) touches it along a
+  // line, as a core lying on a face does (facePatch): the closest pair
+  // alone gives one point of it (anywhere along the line when the two are
+  // parallel), and a shape held at one point of its length pivots about it.
+  // The capsule's rule (capsule.cpp), with the core's supporting face along
+  // -u for the capsule's segment: the face's section by the plane through
+  // the edge that holds u (a segment face is taken whole) is cut to the
+  // part that projects onto the edge between its vertices, and each end of
+  // that part is a point of the patch when within reach and in the same
+  // contact plane, its direction from the edge within manifold_angle_deg of
+  // u (a core crossing the edge has its part's ends far off that
+  // direction). Its depth is the margin minus its own distance. `closest`:
+  // the core's point of the closest pair, already the patch's first point.
+  void addLineEnds(const Vec3 tri[3], int k, const Vec3& u, const Vec3& closest, detail::Patch& p) const {
+    Vec3 local[SupportShape::kMaxFacePoints];
+    const int count = std::min(shape->supportFace(pose.rotation.transpose() * -u, local), SupportShape::kMaxFacePoints);
+    if (count < 2) return;
+    const Vec3& a = tri[k];
+    const Vec3 e = tri[(k + 1) % 3] - a;
+    const double e2 = e.squaredNorm();
+    Vec3 face[SupportShape::kMaxFacePoints];
+    for (int i = 0; i < count; ++i) {
+      face[i] = pose.apply(local[i]);
+      if (!face[i].allFinite()) {  // the shape's error, as in facePatch
+        counters->support_not_finite = true;
+        return;
+      }
+    }
+    // The section as an interval of x = (point - a) . e / |e|^2 along the
+    // edge, with its two end points.
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    Vec3 at_lo = Vec3::Zero(), at_hi = Vec3::Zero();
+    const auto extend = [&](const Vec3& q) {
+      const double x = (q - a).dot(e) / e2;
+      if (x < lo) lo = x, at_lo = q;
+      if (x > hi) hi = x, at_hi = q;
+    };
+    if (count == 2) {
+      extend(face[0]);
+      extend(face[1]);
+    } else {
+      const Vec3 side = e.cross(u);  // normal of the plane through the edge holding u
+      double h[SupportShape::kMaxFacePoints];
+      for (int i = 0; i < count; ++i) h[i] = side.dot(face[i] - a);
+      // The face is the points' convex polygon, given in any order: its
+      // section is spanned by the points on the plane and the crossings of
+      // every pair on opposite sides.
+      for (int i = 0; i < count; ++i) {
+        if (h[i] == 0.0) extend(face[i]);
+        for (int j = i + 1; j < count; ++j)
+          if ((h[i] < 0.0 && h[j] > 0.0) || (h[i] > 0.0 && h[j] < 0.0))
+            extend(face[i] + (h[i] / (h[i] - h[j])) * (face[j] - face[i]));
+      }
+    }
+    if (!(lo <= hi)) return;
+    // The part over the edge: x in [0, 1].
+    const double x0 = std::max(lo, 0.0), x1 = std::min(hi, 1.0);
+    if (x0 > x1) return;
+    const auto pointAt = [&](double x) {
+      if (hi - lo <= 0.0) return at_lo;
+      return Vec3(at_lo + ((x - lo) / (hi - lo)) * (at_hi - at_lo));
+    };
+    const double apart = 1e-9 * size;
+    for (const double x : {x0, x1}) {
+      if (x == x1 && !((x1 - x0) * std::sqrt(e2) > apart)) break;  // one point: taken once
+      const Vec3 end = pointAt(x);
+      if (!((end - closest).norm() > apart)) continue;  // the closest pair's point already
+      const Vec3 w = end - (a + std::clamp((end - a).dot(e) / e2, 0.0, 1.0) * e);
+      const double distance = w.norm();
+      if (distance - margin <= contact_distance && w.dot(u) >= cos_manifold * distance && p.count < 4) {
+        p.points[p.count] = end - margin * u;
+        p.depths[p.count] = margin - distance;
+        ++p.count;
+      }
+    }
   }
 
   // One point along u for the full shape: its extreme point along -u and the
@@ -1236,6 +1319,7 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
                                 &counters};
   narrowphase.predict_intersection = shortcuts;
   narrowphase.projects = givesNearestCorePoints(shape);
+  narrowphase.cos_manifold = std::cos(settings.manifold_angle_deg * (M_PI / 180.0));
   QueryScratch::Impl& sc = scratch.impl();
   // Deep penetration: the same query with the core shrunk toward its center
   // (convex.h); the last scale, the center itself, never intersects.

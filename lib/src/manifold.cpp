@@ -71,7 +71,24 @@ int selectManifoldPoints(const Vec3* points, const double* depths, int count, co
     const double s = ab.cross(points[i] - points[a]).dot(normal);
     if (std::abs(s) > best_area * kTieMargin) best_area = std::abs(s), c = i, signed_abc = s;
   }
-  if (c < 0) return 2;
+  if (c < 0) {
+    // Collinear: a line contact. When the deepest point lies inside the
+    // line (a capsule or a cylinder crossing an edge at a small angle: the
+    // crossing is deepest, the line's ends a little shallower), b is one
+    // end and the other end is the point farthest from b: kept too, or the
+    // shape would be held on one side of its deepest point only.
+    // (Only when it lengthens the line by more than 1e-3: the negligible
+    // share of the span below.)
+    int other = -1;
+    double reach2 = best * (1.0 + 1e-3) * (1.0 + 1e-3);
+    for (int i = 0; i < count; ++i) {
+      const double d2 = planar2(points[i] - points[b]);
+      if (d2 > reach2) reach2 = d2, other = i;
+    }
+    if (other < 0) return 2;
+    keep[2] = other;
+    return 3;
+  }
   keep[2] = c;
 
   // The point outside the triangle that adds the most area: with the

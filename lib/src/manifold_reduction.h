@@ -20,7 +20,9 @@ namespace meshcontact::detail {
 /// that triangle (lengths and areas projected on the plane normal to the
 /// unit `normal`). A point that adds no length (below 1e-9 * length_scale)
 /// or a negligible area (below 1e-3 of the current span, squared) is not
-/// added, so coincident or collinear points give 1 or 2. Ties, to a
+/// added, so coincident points give 1 and collinear ones 2, or 3 when the
+/// deepest lies inside the line (its two ends and the deepest; an end must
+/// lengthen the line by more than 1e-3 of it). Ties, to a
 /// relative 1e-9, go to the earlier point: the result depends only on the
 /// order the caller gives.
 int selectManifoldPoints(const Vec3* points, const double* depths, int count, const Vec3& normal,

@@ -27,7 +27,11 @@
 //     whenever d equals K's height above the triangle's plane. A face patch
 //     has up to 4 points: K's supporting face along -n (supportFace) clipped
 //     to the triangle, moved out by the margin onto the shape's surface, each
-//     with its own depth; an edge or vertex patch has one point.
+//     with its own depth; a vertex patch has one point, and an edge patch
+//     one, plus the ends of a line contact when K lies along the edge (K's
+//     supporting face along -normal, its part over the edge: each end within
+//     reach and within manifold_angle_deg of the normal as seen from the
+//     edge, its depth the margin minus its own distance).
 //   - Deep penetration (K itself touches a triangle, i.e. penetration beyond
 //     the margin somewhere): the whole query is redone with K shrunk toward
 //     the shape's center() by 1/2, 1/4, then to the center point itself,
