@@ -314,6 +314,33 @@ TEST(BoxFigures, Cliff) {
     expectNormals(beside, {Vec3::UnitX()}, "tall box beside the wall, y = " + std::to_string(y));
     for (const Contact& c : beside) EXPECT_NEAR(c.depth, 0.01, 1e-12) << "tall box beside the wall";
   }
+  // An 80-degree wall, and a manifold angle of 85 degrees (the reduction's
+  // setting): the wall's face contacts are not the ledge's plane, so the
+  // ledge's voided edge patches get no stand-in (their face patch, +z,
+  // 0.1 deep), on 1,000 of 1,000 such placements while the stand-ins used
+  // that setting's angle.
+  {
+    const double run = 1.0 / std::tan(80 * kDeg);  // the wall from (-run, z = 1) down to (0, z = 0)
+    SceneMesh ramp;
+    const std::uint32_t l0 = ramp.addVertex(Vec3(-2, -1, 1)), l1 = ramp.addVertex(Vec3(-run, -1, 1));
+    const std::uint32_t l2 = ramp.addVertex(Vec3(-run, 1, 1)), l3 = ramp.addVertex(Vec3(-2, 1, 1));
+    const std::uint32_t w1 = ramp.addVertex(Vec3(0, -1, 0)), w2 = ramp.addVertex(Vec3(0, 1, 0));
+    ramp.addTriangle(l0, l1, l2);
+    ramp.addTriangle(l0, l2, l3);
+    ramp.addTriangle(l1, w1, w2);
+    ramp.addTriangle(l1, w2, l2);
+    const TriangleMesh mesh = testing::buildMesh(ramp);
+    const Box box{Vec3(0.2, 0.15, 0.5)};
+    const Vec3 wall(std::sin(80 * kDeg), 0, std::cos(80 * kDeg));
+    QuerySettings wide;
+    wide.manifold_angle_deg = 85.0;
+    QueryScratch scratch;
+    std::vector<Contact> contacts;
+    // Its bottom 0.1 below the ledge, reaching 0.01 over the ledge's edge.
+    const Pose pose = poseFrom(Mat3::Identity(), Vec3(-run - 0.01 + 0.2, 0.05, 1.0 - 0.1 + 0.5));
+    ASSERT_TRUE(collideBox(mesh, box, pose, wide, scratch, contacts).isOk());
+    expectNormals(contacts, {wall}, "tall box beside an 80-degree wall, manifold angle 85 degrees");
+  }
   // The same box tilted a little about y (its bottom toward the wall) and
   // about x: still only the wall's normal.
   const Mat3 tilt = Eigen::AngleAxisd(0.05, Vec3::UnitY()).toRotationMatrix() *

@@ -41,9 +41,9 @@ int selectManifoldPoints(const Vec3* points, const double* depths, int count, co
   // point must beat the best so far by more than round-off (kTieMargin,
   // relative): points at one place in that plane (a box's corner, and the
   // point above it where its vertical edge crosses a neighbouring
-  // triangle's plane) tie, and the tie goes to the earlier, which the
-  // callers order deepest first. Compared in 3D, or on round-off, the
-  // shallower point took the corner's slot on 3 in 1,000 boxes sunk into a
+  // triangle's plane) tie, and the tie goes to the earlier, which
+  // reduceManifolds orders deepest first. Compared in 3D, or on round-off,
+  // the shallower point took the corner's slot on 3 in 1,000 boxes sunk into a
   // grid whose vertices are under their corners.
   constexpr double kTieMargin = 1.0 + 1e-9;
   const auto planar2 = [&](const Vec3& d) {

@@ -17,8 +17,8 @@ namespace meshcontact::detail {
 /// the one farthest from the point farthest from the deepest: an extreme
 /// point of the whole set), the farthest from it, the one spanning the
 /// largest triangle with those two, and the one adding the most area to
-/// that triangle (lengths and areas projected on the plane normal to the
-/// unit `normal`). A point that adds no length (below 1e-9 * length_scale)
+/// that triangle (these three: lengths and areas projected on the plane
+/// normal to the unit `normal`). A point that adds no length (below 1e-9 * length_scale)
 /// or a negligible area (below 1e-3 of the current span, squared) is not
 /// added, so coincident points give 1 and collinear ones 2, or 3 when the
 /// deepest lies inside the line (its two ends and the deepest; an end must

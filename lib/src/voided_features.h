@@ -13,9 +13,9 @@
 //     produced a contact (§5a, §5b). So at a delayed patch's turn, V holds
 //     exactly the face contacts' triangles and the triangles of the delayed
 //     patches that precede it in that order. The filter tests that directly,
-//     without sorting: every contact's triangle is entered once with its rank
-//     (faces first), and a delayed patch is voided iff a triangle ranked
-//     before it holds its feature. The verdicts are those of the sorted pass,
+//     without sorting (but see the stand-ins below): every contact's
+//     triangle is entered once with its rank (faces first), and a delayed
+//     patch is voided iff a triangle ranked before it holds its feature. The verdicts are those of the sorted pass,
 //     for less than the sort alone cost (~2,000 instructions per sphere query
 //     on a floor: 16 delayed patches of 24 bytes, moved and compared).
 //   - a delayed patch may also carry its triangle's face part (shapes that
@@ -30,7 +30,8 @@
 //     A narrowphase may instead offer its face parts as stand-ins only
 //     (FacePartsStandIn, the box's: see box.cpp, step 5): written in place
 //     of a voided patch whose feature a face contact ranked before it in
-//     the same contact plane holds, dropped otherwise and with a kept patch.
+//     the same plane (kStandInCosine) holds, dropped otherwise and with a
+//     kept patch. A query with such parts meets its delayed patches sorted.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -85,9 +86,18 @@ struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesA
 /// A narrowphase whose face parts only stand in for voided patches (static
 /// constexpr bool kFacePartsStandIn = true; see the top of this file): a
 /// face part is written in place of a voided patch when a face contact
-/// ranked before it, its normal within manifold_angle_deg of the part's,
-/// holds the voided feature, and never beside a kept patch. A compile-time
-/// choice: the sphere's filter, which has no face parts, pays nothing.
+/// ranked before it, its normal within 3 degrees of the part's
+/// (kStandInCosine), holds the voided feature, and never beside a kept
+/// patch. A compile-time choice: the sphere's filter, which has no face
+/// parts, pays nothing.
+///
+/// The angle is the library's own, not the settings' manifold_angle_deg
+/// (which may be anything below 90 degrees, for the reduction's sake): at
+/// 85 degrees a wall's face contacts counted as the ledge's plane, and a
+/// box beside the wall's top was pushed up onto the ledge by its depth.
+/// 3 degrees is that setting's default: a tessellated plane or a gently
+/// curved terrain continues across the edge.
+inline constexpr double kStandInCosine = 0.9986295347545738;  // cos(3 degrees)
 template <class N, class = void>
 struct FacePartsStandIn : std::false_type {};
 template <class N>
@@ -371,7 +381,6 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // depend on the midphase's order.
   if (stand_in_parts && stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
   bool positions_built = false;
-  double cos_coplanar = 2.0;  // taken at the first face part offered as a stand-in
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
@@ -382,19 +391,17 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       // A stand-in only where the surface goes on in the face's plane: a
       // face contact ranked before this patch (of the first pass, or a
       // stand-in: the patches are met in rank order then), its normal
-      // within manifold_angle_deg of this face's (one contact plane; at
-      // least round-off), holds the feature. Held only by a wall (a box
+      // within 3 degrees of this face's (kStandInCosine), holds the
+      // feature. Held only by a wall (a box
       // beside a cliff, its centre over the ledge, the ledge's edge voided
       // by the wall's face contacts) or by other delayed patches, the
       // stand-in would push the box onto the ledge: none.
       bool stand_in = false;
       if (voided) {
-        if (cos_coplanar > 1.0)
-          cos_coplanar = std::min(std::cos(settings.manifold_angle_deg * (M_PI / 180.0)), 1.0 - 1e-12);
         const Vec3 normal = p.face_normal;
         const auto coplanar_face = [&](const SortItem& r) {
           const Patch& q = s.patches[r.patch];
-          return q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= cos_coplanar;
+          return q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= kStandInCosine;
         };
         const int i = p.feature.index;
         stand_in = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);

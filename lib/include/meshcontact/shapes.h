@@ -88,8 +88,12 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
 /// normal, depth = that point's depth); others get the separating axis of
 /// least penetration (separating axes: triangle normal, 3 box faces, 9
 /// edge-edge crosses; face axes preferred, never a normal into the
-/// triangle's back). Up to 4 points per triangle by clipping (a box lying
-/// flat on a tessellated floor ends with 4 after the manifold reduction).
+/// triangle's back). Such a contact on an edge or vertex that the filter
+/// voids is replaced by the triangle's face contact when a face contact in
+/// the same plane (within 3 degrees) holds that edge or vertex: a box sunk
+/// into a tessellated floor keeps the part of its face over each
+/// triangle. Up to 4 points per triangle by clipping (a box lying flat on a
+/// tessellated floor ends with 4 after the manifold reduction).
 /// See box.cpp for the details.
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
                             const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
