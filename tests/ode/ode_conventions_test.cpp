@@ -714,7 +714,54 @@ TEST(OdeConventions, CollideWithGroupRefusesBadArguments) {
   EXPECT_EQ(ode::collideWithGroup(sphere, nullptr, 2, 8, c, skip), 0);
   EXPECT_EQ(ode::statistics().errors, 6u);
   EXPECT_NE(ode::lastError().find("no trimesh"), std::string::npos) << ode::lastError();
+  // Geoms that are not placeable (a plane; a space handed over as a geom):
+  // ODE's pose accessors end the process on them, so the class is checked
+  // first, as a listed piece and as the shape.
+  dGeomID plane = dCreatePlane(nullptr, 0, 0, 1, 0);
+  dSpaceID space = dSimpleSpaceCreate(nullptr);
+  const dGeomID plane_first[] = {plane, a.geom};
+  EXPECT_EQ(ode::collideWithGroup(sphere, plane_first, 2, 8, c, skip), 0);
+  EXPECT_NE(ode::lastError().find("not a trimesh"), std::string::npos) << ode::lastError();
+  EXPECT_EQ(ode::collideWithGroup(plane, pair, 2, 8, c, skip), 0);
+  EXPECT_NE(ode::lastError().find("not handled"), std::string::npos) << ode::lastError();
+  EXPECT_EQ(ode::collideWithGroup(reinterpret_cast<dGeomID>(space), pair, 2, 8, c, skip), 0);
+  EXPECT_EQ(ode::statistics().errors, 9u);
+  dSpaceDestroy(space);
+  dGeomDestroy(plane);
   dGeomDestroy(sphere);
+}
+
+// A trimesh geom with no data at all (dCreateTriMesh with null data: a
+// streaming placeholder) listed to collideWithGroup or in a group: ODE's
+// AABB of it reads through the null data (a crash), so it is reported
+// (kMeshNotBuilt) and left out before, and the other pieces still collide.
+TEST(OdeConventions, TrimeshWithoutDataIsLeftOut) {
+  Session session;
+  std::vector<Status> seen;
+  ASSERT_TRUE(ode::installColliders(recordingErrors(seen)).isOk());
+  OdeMesh floor(scenes::flatFloor(4, 4, 0.5, 2));
+  dGeomID placeholder = dCreateTriMesh(nullptr, nullptr, nullptr, nullptr, nullptr);
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  dGeomSetPosition(sphere, 1.0, 1.0, 0.1);
+  dContactGeom c[8];
+  const int skip = sizeof(dContactGeom);
+  const int alone = dCollide(floor.geom, sphere, 8, c, skip);
+  ASSERT_GT(alone, 0);
+  const dGeomID list[] = {floor.geom, placeholder};
+  EXPECT_EQ(ode::collideWithGroup(sphere, list, 2, 8, c, skip), alone);
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].code(), ErrorCode::kMeshNotBuilt) << seen[0].message();
+  const dGeomID members[] = {floor.geom, placeholder};
+  ASSERT_TRUE(ode::makeGroup(members, 2).isOk());
+  EXPECT_EQ(dCollide(floor.geom, sphere, 8, c, skip), alone);  // the placeholder adds nothing
+  EXPECT_EQ(seen.size(), 1u);
+  EXPECT_EQ(dCollide(placeholder, sphere, 8, c, skip), 0);
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_EQ(seen[1].code(), ErrorCode::kMeshNotBuilt) << seen[1].message();
+  ode::leaveGroup(placeholder);
+  ode::leaveGroup(floor.geom);
+  dGeomDestroy(sphere);
+  dGeomDestroy(placeholder);
 }
 
 // A trimesh whose data was never built has no triangles (Debian's ODE
@@ -859,6 +906,30 @@ TEST(OdeConventions, BuildWrappersRefuseArraysOdeCannotBuild) {
       EXPECT_EQ(s.code(), ErrorCode::kIndexOutOfRange) << s.message();
       EXPECT_NE(s.message().find("triangle 1 corner 2"), std::string::npos) << s.message();
     }
+  // A vertex that is not finite (or beyond +-1e50, the core's range): the
+  // data would build in ODE, and every query on it then failed, each one
+  // reading all the arrays again.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const double bad : {nan, std::numeric_limits<double>::infinity(), 1e51}) {
+    std::vector<double> vb = v;
+    vb[7] = bad;  // vertex 2's y
+    const std::vector<dTriIndex> idx = {0, 1, 2, 1, 3, 2};
+    const Status s = ode::buildTriMeshDataDouble(data, vb.data(), 3 * sizeof(double), 4, idx.data(), 6, stride);
+    EXPECT_EQ(s.code(), ErrorCode::kNonFiniteVertex) << s.message();
+    EXPECT_NE(s.message().find("vertex 2"), std::string::npos) << s.message();
+    if (bad == bad && std::abs(bad) < 1e39) {  // representable as a float too
+      std::vector<float> vbf(vb.begin(), vb.end());
+      EXPECT_EQ(ode::buildTriMeshDataSingle(data, vbf.data(), 3 * sizeof(float), 4, idx.data(), 6, stride).code(),
+                ErrorCode::kNonFiniteVertex);
+    }
+  }
+  {
+    std::vector<float> vbf(vf);
+    vbf[7] = std::numeric_limits<float>::quiet_NaN();
+    const std::vector<dTriIndex> idx = {0, 1, 2, 1, 3, 2};
+    EXPECT_EQ(ode::buildTriMeshDataSingle(data, vbf.data(), 3 * sizeof(float), 4, idx.data(), 6, stride).code(),
+              ErrorCode::kNonFiniteVertex);
+  }
   // The same arrays with valid indices build, and the mesh collides.
   const std::vector<dTriIndex> good = {0, 1, 2, 1, 3, 2};
   for (const Status& s : all(good, 4, 6)) EXPECT_TRUE(s.isOk()) << s.message();

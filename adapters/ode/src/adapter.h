@@ -152,10 +152,10 @@ Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out);
 /// kEmptyMesh for a trimesh whose data has no triangles (MeshEntry::empty).
 Status emptyMeshError();
 
-/// Whether `geom` is a trimesh whose data ODE holds no triangles for (data
-/// never built). collideWithGroup reads it before a piece's AABB, which ODE
-/// then computes from uninitialised bounds, so that the piece is reported
-/// whatever they hold.
+/// Whether `geom` is a trimesh with no data, or whose data ODE holds no
+/// triangles for (data never built). collideWithGroup reads it before a
+/// piece's AABB, which ODE would compute through the null data, or from
+/// uninitialised bounds, so that the piece is reported whatever they hold.
 bool hasNoTriangles(dGeomID geom);
 
 /// A geom's pose in the world (its final pose, including a body offset).

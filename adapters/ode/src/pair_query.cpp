@@ -58,6 +58,11 @@ Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
   // so that two descriptions of one shape compare equal field by field (the
   // triangle filter's memo) whatever `out` described before.
   out = ShapeQuery();
+  // The class first: ODE's pose accessors end the process for a geom that
+  // is not placeable (a plane, a space), which a near callback may hand to
+  // collideWithGroup.
+  if (shapeBit(cls) == 0)
+    return {ErrorCode::kInvalidShape, "geom class " + std::to_string(cls) + " is not handled by meshcontact::ode"};
   out.pose = geomPose(shape);
   switch (cls) {
     case dSphereClass:
@@ -192,7 +197,13 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   for (dGeomID m : group->members) {
     // A member without triangles is skipped whichever way its AABB (which
     // ODE computes from bounds it never set) goes: not tested for first,
-    // which would cost three ODE calls per member per query.
+    // which would cost three ODE calls per member per query. A member with
+    // no data at all (a placeholder geom) has no AABB to compute: ODE's
+    // would read through the null data.
+    if (dGeomTriMeshGetData(m) == nullptr) {
+      if (m == trimesh) return {ErrorCode::kMeshNotBuilt, "trimesh geom has no dTriMeshDataID"};
+      continue;
+    }
     dReal box[6];
     dGeomGetAABB(m, box);
     if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
@@ -208,11 +219,19 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
   clearInstances(ctx);
   if (trimeshes == nullptr || count < 1) return {ErrorCode::kInvalidSettings, "collideWithGroup: no trimesh geom"};
   if (shape == nullptr) return {ErrorCode::kInvalidShape, "collideWithGroup: the shape geom is null"};
-  // Checked before any is read: a null geom would crash ODE's accessors, and
-  // a geom listed twice would give each of its contacts twice.
+  // Checked before any is read: a null geom would crash ODE's accessors, a
+  // geom of another class (a plane: not placeable) would end the process in
+  // them, and a geom listed twice would give each of its contacts twice.
+  // The shape likewise.
+  if (shapeBit(dGeomGetClass(shape)) == 0)
+    return {ErrorCode::kInvalidShape, "collideWithGroup: the shape's geom class " +
+                                          std::to_string(dGeomGetClass(shape)) + " is not handled by meshcontact::ode"};
   for (int i = 0; i < count; ++i) {
     if (trimeshes[i] == nullptr)
       return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(i) + " is null"};
+    if (dGeomGetClass(trimeshes[i]) != dTriMeshClass)
+      return {ErrorCode::kInvalidSettings, "collideWithGroup: geom " + std::to_string(i) + " is of class " +
+                                               std::to_string(dGeomGetClass(trimeshes[i])) + ", not a trimesh"};
     for (int j = 0; j < i; ++j)
       if (trimeshes[j] == trimeshes[i])
         return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(i) +
@@ -226,7 +245,9 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
       // Reported, and the other pieces still collide: this one has nothing
       // to add, and failing the whole call would drop the floor under a
       // body because of a placeholder.
-      const Status empty = emptyMeshError();
+      const Status empty = dGeomTriMeshGetData(trimeshes[i]) == nullptr
+                               ? Status(ErrorCode::kMeshNotBuilt, "trimesh geom has no dTriMeshDataID")
+                               : emptyMeshError();
       report({empty.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + empty.message()}, trimeshes[i],
              shape);
       continue;

@@ -212,6 +212,27 @@ Status checkArrays(const void* vertices, int vertex_stride, int vertex_count, co
     return {ErrorCode::kEmptyMesh, "buildTriMeshData: no triangles or no vertices (vertex_count " +
                                        std::to_string(vertex_count) + ", index_count " +
                                        std::to_string(index_count) + ")"};
+  // Vertices as the core's mesh build takes them (finite, within +-1e50):
+  // a NaN vertex accepted here made every later query on the data fail
+  // (the cache's build refused it, and was tried again at each collision).
+  const auto* vbase = static_cast<const unsigned char*>(vertices);
+  for (int i = 0; i < vertex_count; ++i) {
+    Vec3 v;
+    for (int k = 0; k < 3; ++k) {
+      const unsigned char* at = vbase + static_cast<std::size_t>(i) * vertex_stride + k * scalar;
+      if (scalar == sizeof(float)) {
+        float f;
+        std::memcpy(&f, at, sizeof f);
+        v[k] = f;
+      } else {
+        std::memcpy(&v[k], at, sizeof(double));
+      }
+    }
+    if (!inRange(v.x()) || !inRange(v.y()) || !inRange(v.z()))
+      return {ErrorCode::kNonFiniteVertex, "buildTriMeshData: vertex " + std::to_string(i) + " (" +
+                                               describeValue(v.x()) + ", " + describeValue(v.y()) + ", " +
+                                               describeValue(v.z()) + ") is not finite or beyond +-1e50"};
+  }
   const auto* base = static_cast<const unsigned char*>(indices);
   for (int t = 0; t < index_count / 3; ++t)
     for (int k = 0; k < 3; ++k) {
@@ -346,9 +367,10 @@ Status emptyMeshError() {
 }
 
 bool hasNoTriangles(dGeomID geom) {
-  // Checked in this order: ODE's accessors assert on another class or no data.
-  return geom != nullptr && dGeomGetClass(geom) == dTriMeshClass && dGeomTriMeshGetData(geom) != nullptr &&
-         dGeomTriMeshGetTriangleCount(geom) == 0;
+  // Checked in this order: ODE's accessors assert on another class, and its
+  // AABB reads through null data.
+  return geom != nullptr && dGeomGetClass(geom) == dTriMeshClass &&
+         (dGeomTriMeshGetData(geom) == nullptr || dGeomTriMeshGetTriangleCount(geom) == 0);
 }
 
 Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out) {

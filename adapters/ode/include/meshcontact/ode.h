@@ -50,7 +50,12 @@
 // - destroy data with destroyTriMeshData() (or call forget() before
 //   dGeomTriMeshDataDestroy()): a new data object may reuse the old address;
 // - the only automatic check is the triangle count: a change rebuilds the
-//   cache (and drops a registration whose arrays no longer match).
+//   cache (and drops a registration whose arrays no longer match);
+// - data built with buildTriMeshData*() and rebuilt with ODE's own
+//   dGeomTriMeshDataBuild*() from other arrays: call forget() first, or the
+//   cache keeps reading the first arrays (freed, perhaps).
+// A trimesh geom with no data (dCreateTriMesh(space, nullptr, ...)) is an
+// error where it is queried (kMeshNotBuilt), and adds nothing to its group.
 //
 // Poses: the trimesh geom's own pose (dGeomGetPosition/Rotation, including an
 // offset from its body) is honoured: queries run in the trimesh's frame.
@@ -209,9 +214,11 @@ void leaveGroup(dGeomID trimesh);
 /// index. Budget and selection as above. Returns the number written; errors
 /// are reported (see "Errors") and give 0, among them the arguments dCollide
 /// would have checked: a null shape, contacts or trimesh, no trimesh, skip
-/// below sizeof(dContactGeom), a trimesh listed twice. A listed trimesh
-/// whose data has no triangles is reported (kEmptyMesh) and left out; the
-/// others still collide. The frame of the query is trimeshes[0]'s, and ties
+/// below sizeof(dContactGeom), a trimesh listed twice, a listed geom that
+/// is not a trimesh (a plane: ODE's accessors would end the process), a
+/// shape of a class the adapter does not handle (kInvalidShape). A listed
+/// trimesh with no data (kMeshNotBuilt) or whose data has no triangles
+/// (kEmptyMesh) is reported and left out; the others still collide. The frame of the query is trimeshes[0]'s, and ties
 /// between pieces go to the one listed first: keep the list in one order for
 /// repeatable results.
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts,
