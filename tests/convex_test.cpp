@@ -893,6 +893,48 @@ TEST(ConvexFigures, AlongASingleEdge) {
   }
 }
 
+// A cylinder on its side and a box hull lying flat across a pyramid's apex
+// (4 triangles meeting at (0, 0, 0.1)), sunk 0.001 or 0.01 (deeper than
+// the margin: the deep passes), their centres off the apex along x: one
+// contact, over the apex, normal +z, the depth the sink. The core's whole
+// segment or face is extreme along -z, and its support point, or GJK's
+// witness, is any point of it: at 0.01 the cylinder's contact was at an
+// end of its side line, 0.24 from the apex, and the hull's at a corner (a
+// torque about a point the shape does not rest on).
+TEST(ConvexFigures, AcrossAPeakTheContactIsOverIt) {
+  SceneMesh pyramid;
+  const std::uint32_t apex = pyramid.addVertex(Vec3(0, 0, 0.1));
+  std::uint32_t base[4];
+  for (int k = 0; k < 4; ++k) base[k] = pyramid.addVertex(Vec3(k == 0 || k == 3 ? -1 : 1, k < 2 ? -1 : 1, 0));
+  for (int k = 0; k < 4; ++k) pyramid.addTriangle(apex, base[k], base[(k + 1) % 4]);
+  const TriangleMesh mesh = testing::buildMesh(pyramid);
+  const CylinderShape cylinder(Cylinder{0.2, 0.25});
+  const ConvexHull hull = boxHull(Vec3(0.25, 0.2, 0.1));
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const SupportShape* shape : {static_cast<const SupportShape*>(&cylinder), static_cast<const SupportShape*>(&hull)}) {
+    const bool is_cylinder = shape == &cylinder;
+    const double below = is_cylinder ? 0.2 : 0.1;  // the shape's lowest point under its centre
+    for (const double sink : {0.001, 0.01}) {
+      for (const double x : {0.0, 0.05, -0.12}) {
+        Pose pose;
+        pose.rotation = is_cylinder ? Mat3(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY())) : Mat3::Identity();
+        // The cylinder's side line over the apex (its round side would rise
+        // off it sideways), the hull's face 0.03 off it too.
+        pose.translation = Vec3(x, is_cylinder ? 0.0 : 0.03, 0.1 + below - sink);
+        ASSERT_TRUE(collideConvex(mesh, *shape, pose, QuerySettings(), scratch, contacts).isOk());
+        const std::string what = std::string(is_cylinder ? "cylinder" : "box hull") + " sunk " +
+                                 std::to_string(sink) + ", centre at x = " + std::to_string(x);
+        ASSERT_EQ(contacts.size(), 1u) << what;
+        EXPECT_LT(degreesBetween(contacts[0].normal, Vec3::UnitZ()), 1e-6) << what;
+        EXPECT_NEAR(contacts[0].depth, sink, 1e-9) << what;
+        EXPECT_LT((contacts[0].point - Vec3(0, 0, 0.1 - sink)).norm(), 1e-6) << what << ": the contact at "
+                                                                              << str(contacts[0].point);
+      }
+    }
+  }
+}
+
 // A hull's center and inradius are the hull's own: points on its faces,
 // allowed and dropped, do not move them. A unit cube given with 81 more
 // points on its bottom face had its center 0.045 above that face and a

@@ -967,7 +967,16 @@ struct ConvexNarrowphase {
       if (face) return facePatch(tri, n, Vec3(g.point_a - margin * n), true, p);
       p.normal = u;
       p.count = 1;
-      p.points[0] = g.point_a - margin * u;
+      // Over a vertex, the contact's place is the core's point over it.
+      // GJK's witness on a core segment or face normal to the closest
+      // direction may be any point of it (the direction and the distance
+      // are unique, the witnesses not): a cylinder lying across a peak got
+      // its contact at either end of its side line, which end depending on
+      // the pose's rounding, and a torque about it (overVertex).
+      const Vec3 on_core =
+          p.feature.type == FeatureType::kVertex ? overVertex(tri[p.feature.index], u, g.point_a) : g.point_a;
+      if (counters->support_not_finite) return PatchOutcome::kDegenerate;
+      p.points[0] = on_core - margin * u;
       p.depths[0] = margin - d;
       if constexpr (!kChecking)
         if (p.feature.type == FeatureType::kEdge) addLineEnds(tri, p.feature.index, u, g.point_a, p);
@@ -1157,12 +1166,56 @@ struct ConvexNarrowphase {
     }
   }
 
+  // The core's extreme point along -u that lies over the triangle's vertex
+  // (on the line through it along u), when the core's supporting face
+  // along -u is normal to u (its points level along u, to 1e-9 of the
+  // size) and holds one; else `extreme` (the support point, or GJK's
+  // witness). A core lying across a peak has a whole segment or face
+  // extreme along -u, and the support point is any point of it (a cylinder
+  // across a pyramid's apex, sunk 0.01: its contact at either end of its
+  // side line, 0.24 from the apex); the depth along u is the same at each.
+  // A face tilted within supportFace's slack has one lowest point, which
+  // `extreme` is.
+  Vec3 overVertex(const Vec3& vertex, const Vec3& u, const Vec3& extreme) const {
+    Vec3 local[SupportShape::kMaxFacePoints];
+    int count = std::min(shape->supportFace(pose.rotation.transpose() * -u, local), SupportShape::kMaxFacePoints);
+    if (count < 2) return extreme;
+    const Vec3 e1 = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2 = u.cross(e1);
+    detail::FacePoint face[SupportShape::kMaxFacePoints];
+    const double level = u.dot(extreme);
+    for (int i = 0; i < count; ++i) {
+      face[i].p = pose.apply(local[i]);
+      if (!face[i].p.allFinite()) {
+        counters->support_not_finite = true;
+        return extreme;
+      }
+      if (!(std::abs(u.dot(face[i].p) - level) <= 1e-9 * size)) return extreme;
+      face[i].x = e1.dot(face[i].p - vertex);
+      face[i].y = e2.dot(face[i].p - vertex);
+    }
+    if (count == 2) {  // a segment: its point nearest the line, in the plane normal to u
+      const double dx = face[1].x - face[0].x, dy = face[1].y - face[0].y, len2 = dx * dx + dy * dy;
+      const double t = len2 > 0.0 ? std::clamp(-(face[0].x * dx + face[0].y * dy) / len2, 0.0, 1.0) : 0.0;
+      return face[0].p + t * (face[1].p - face[0].p);
+    }
+    count = detail::convexHull2d(face, count);  // counter-clockwise about u
+    if (count < 3) return extreme;
+    for (int i = 0; i < count; ++i) {  // the vertex's line (the origin here) inside the polygon?
+      const detail::FacePoint &a = face[i], &b = face[(i + 1) % count];
+      if ((b.x - a.x) * (0.0 - a.y) - (b.y - a.y) * (0.0 - a.x) < 0.0) return extreme;
+    }
+    return vertex + u.dot(extreme - vertex) * u;  // at the support point's height
+  }
+
   // One point along u for the full shape: its extreme point along -u and the
   // separation of the shape's and the triangle's projections on u.
   detail::PatchOutcome pointPatch(const Vec3 tri[3], const Vec3& u, detail::Patch& p) const {
     const PlacedCore core{shape, &pose.rotation, pose.translation, center, 1.0, counters};
-    const Vec3 point = core.full(-u) - margin * u;
+    Vec3 extreme = core.full(-u);
     if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
+    if (p.feature.type == FeatureType::kVertex) extreme = overVertex(tri[p.feature.index], u, extreme);
+    if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
+    const Vec3 point = extreme - margin * u;
     const double depth = u.dot(TriangleSupport{tri}(u)) - u.dot(point);
     p.normal = u;
     p.count = 0;
