@@ -891,18 +891,18 @@ struct BoxNarrowphase {
     // The minimum inside the triangle: Phi's global one, so the triangle holds
     // s after all (within round-off).
     if (patch.feature.type == FeatureType::kFace) return own();
-    // Its stand-in, should a face contact in this face's plane void the edge
-    // or vertex (the filter checks): the face patch along n. So voided, the
-    // surface goes on across the feature (an internal edge): the tilted axis was
-    // least only because this triangle ends there (a box sunk by d over a
-    // strip of it narrower than d), and pushing along it would slide the
-    // box onto the neighbour, not out of the surface. The box's part over
-    // this triangle is still in the surface, and the neighbour's face patch
-    // is clipped to its own prism: without the stand-in, that part (a
-    // corner of a box sunk into a tessellated floor) had no point, and the
-    // box stood on a smaller polygon than its face. Kept (a boundary edge),
-    // the tilted patch stands alone: pushing a box beside a plate's edge up
-    // by its depth would pop it onto the plate.
+    // Its stand-in, should a face contact in this face's plane void the edge or
+    // vertex (the filter checks): the face patch along n. So voided, the
+    // surface goes on across the feature (an internal edge): the tilted axis
+    // was least only because this triangle ends there (a box sunk by d over a
+    // strip of it narrower than d), and pushing along it would slide the box
+    // onto the neighbour, not out of the surface. The box's part over this
+    // triangle is still in the surface, and the neighbour's face patch is
+    // clipped to its own prism: without the stand-in, that part (a corner of a
+    // box sunk into a tessellated floor) had no point, and the box stood on a
+    // smaller polygon than its face. Kept (a boundary edge), the tilted patch
+    // stands alone: pushing a box beside a plate's edge up by its depth would
+    // pop it onto the plate.
     if (n_depth >= -reach()) {
       Polygon face;
       facePolygon(face);

@@ -15,9 +15,10 @@
 //     patches that precede it in that order. The filter tests that directly,
 //     without sorting (but see the stand-ins below): every contact's
 //     triangle is entered once with its rank (faces first), and a delayed
-//     patch is voided iff a triangle ranked before it holds its feature. The verdicts are those of the sorted pass,
-//     for less than the sort alone cost (~2,000 instructions per sphere query
-//     on a floor: 16 delayed patches of 24 bytes, moved and compared).
+//     patch is voided iff a triangle ranked before it holds its feature.
+//     The verdicts are those of the sorted pass, for less than the sort
+//     alone cost (~2,000 instructions per sphere query on a floor: 16
+//     delayed patches of 24 bytes, moved and compared).
 //   - a delayed patch may also carry its triangle's face part (shapes that
 //     extend over several triangles: the capsule's core, part of which lies
 //     over this face while its closest point to the triangle is on an edge).
@@ -392,10 +393,10 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       // face contact ranked before this patch (of the first pass, or a
       // stand-in: the patches are met in rank order then), its normal
       // within 3 degrees of this face's (kStandInCosine), holds the
-      // feature. Held only by a wall (a box
-      // beside a cliff, its centre over the ledge, the ledge's edge voided
-      // by the wall's face contacts) or by other delayed patches, the
-      // stand-in would push the box onto the ledge: none.
+      // feature. Held only by a wall (a box beside a cliff, its centre over
+      // the ledge, the ledge's edge voided by the wall's face contacts) or
+      // by other delayed patches, the stand-in would push the box onto the
+      // ledge: none.
       bool stand_in = false;
       if (voided) {
         const Vec3 normal = p.face_normal;
