@@ -518,12 +518,11 @@ TEST(BoxFloor, SetDownBesideAnEdgeStaysOnItsSide) {
 // corner still under the floor), its lowest corner 0.01 or 0.05 deep:
 // after the reduction, 4 contacts, each normal the floor's, each depth its
 // point's, and one at each bottom corner (in the floor's plane; see
-// below). A
-// triangle under a strip of the box narrower than its depth has a
-// sideways axis of least penetration, an edge patch the neighbour's face
+// below). A triangle under a strip of the box narrower than its depth has
+// a sideways axis of least penetration, an edge patch the neighbour's face
 // voids: the corner over it had no point (103 of 2,000 placements at 0.01
-// lost part of a corner region, 527 at 0.05, some a whole corner) until the
-// face patch stood in for the voided one.
+// lost part of a corner region, 527 at 0.05, some a whole corner) until
+// the face patch stood in for the voided one.
 TEST(BoxFloor, SunkBoxKeepsItsCorners) {
   scenes::Rng rng(23);
   QueryScratch scratch;

@@ -497,14 +497,7 @@ TEST(CapsuleFigures, Ridge) {
 // are within reach at 2 degrees, but off the contact plane (21 degrees
 // off the normal), beyond reach further on.
 TEST(CapsuleFigures, AlongASingleEdge) {
-  SceneMesh roof;  // ridge along x from (-5, 0, 1) to (5, 0, 1), 45-degree slopes down to y = +-1, z = 0
-  const std::uint32_t a = roof.addVertex(Vec3(-5, 0, 1)), b = roof.addVertex(Vec3(5, 0, 1));
-  const std::uint32_t c = roof.addVertex(Vec3(5, 1, 0)), d = roof.addVertex(Vec3(-5, 1, 0));
-  const std::uint32_t e = roof.addVertex(Vec3(5, -1, 0)), f = roof.addVertex(Vec3(-5, -1, 0));
-  roof.addTriangle(a, b, c);
-  roof.addTriangle(a, c, d);
-  roof.addTriangle(a, e, b);
-  roof.addTriangle(a, f, e);
+  const SceneMesh roof = testing::ridgeRoof();  // the ridge along x at z = 1
   const Capsule cap{0.1, 1.0};
   for (const double height : {1.09, 1.11}) {  // the core's height: penetrating by 0.01, then 0.01 apart
     const Pose pose = poseFrom(alongZ(Vec3::UnitX()), Vec3(0.3, 0, height));

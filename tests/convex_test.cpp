@@ -840,15 +840,7 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
 // the closest pair alone gave 1 point, at whichever end GJK met first, and
 // the shape pivoted about it.)
 TEST(ConvexFigures, AlongASingleEdge) {
-  SceneMesh roof;  // ridge along x from (-5, 0, 1) to (5, 0, 1), slopes down to y = +-1, z = 0
-  const std::uint32_t a = roof.addVertex(Vec3(-5, 0, 1)), b = roof.addVertex(Vec3(5, 0, 1));
-  const std::uint32_t c = roof.addVertex(Vec3(5, 1, 0)), d = roof.addVertex(Vec3(-5, 1, 0));
-  const std::uint32_t e = roof.addVertex(Vec3(5, -1, 0)), f = roof.addVertex(Vec3(-5, -1, 0));
-  roof.addTriangle(a, b, c);
-  roof.addTriangle(a, c, d);
-  roof.addTriangle(a, e, b);
-  roof.addTriangle(a, f, e);
-  const TriangleMesh mesh = testing::buildMesh(roof);
+  const TriangleMesh mesh = testing::buildMesh(testing::ridgeRoof());  // the ridge along x at z = 1
   const CylinderShape cylinder(Cylinder{0.1, 1.0});
   const ConvexHull hull = boxHull(Vec3(1.0, 0.1, 0.1));
   QuerySettings settings;

@@ -101,6 +101,22 @@ inline scenes::SceneMesh unitGrid(int cells, const Mat3& r = Mat3::Identity(), c
   return grid;
 }
 
+/// A roof: one ridge along x from (-5, 0, 1) to (5, 0, 1), the only edge
+/// between its two 45-degree slopes, which run down to y = +-1 at z = 0
+/// (two triangles each). A shape lying along the ridge touches a single
+/// long edge.
+inline scenes::SceneMesh ridgeRoof() {
+  scenes::SceneMesh roof;  // (the vertices added one by one: an argument list's order is unspecified)
+  const std::uint32_t a = roof.addVertex(Vec3(-5, 0, 1)), b = roof.addVertex(Vec3(5, 0, 1));
+  const std::uint32_t c = roof.addVertex(Vec3(5, 1, 0)), d = roof.addVertex(Vec3(-5, 1, 0));
+  const std::uint32_t e = roof.addVertex(Vec3(5, -1, 0)), f = roof.addVertex(Vec3(-5, -1, 0));
+  roof.addTriangle(a, b, c);
+  roof.addTriangle(a, c, d);
+  roof.addTriangle(a, e, b);
+  roof.addTriangle(a, f, e);
+  return roof;
+}
+
 /// Builds a mesh or fails the test with the build's message.
 inline TriangleMesh buildMesh(const scenes::SceneMesh& m) {
   TriangleMesh mesh;
