@@ -1088,6 +1088,23 @@ struct ConvexNarrowphase {
     return pointPatch(tri, normalizedOr(v, n), p);
   }
 
+  // The core's supporting face along `direction` (query frame; supportFace's
+  // points, at most kMaxFacePoints) in the query frame. Returns how many; 0
+  // for a point that is not finite, the shape's error (as in facePatch).
+  int supportFacePoints(const Vec3& direction, Vec3* out) const {
+    Vec3 local[SupportShape::kMaxFacePoints];
+    const int count = std::min(shape->supportFace(pose.rotation.transpose() * direction, local),
+                               SupportShape::kMaxFacePoints);
+    for (int i = 0; i < count; ++i) {
+      out[i] = pose.apply(local[i]);
+      if (!out[i].allFinite()) {
+        counters->support_not_finite = true;
+        return 0;
+      }
+    }
+    return count;
+  }
+
   // A core lying along the edge (a cylinder on its side along a ridge or a
   // table's edge; a hull's edge, or a face across it) touches it along a
   // line, as a core lying on a face does (facePatch): the closest pair
@@ -1103,20 +1120,12 @@ struct ConvexNarrowphase {
   // direction). Its depth is the margin minus its own distance. `closest`:
   // the core's point of the closest pair, already the patch's first point.
   void addLineEnds(const Vec3 tri[3], int k, const Vec3& u, const Vec3& closest, detail::Patch& p) const {
-    Vec3 local[SupportShape::kMaxFacePoints];
-    const int count = std::min(shape->supportFace(pose.rotation.transpose() * -u, local), SupportShape::kMaxFacePoints);
+    Vec3 face[SupportShape::kMaxFacePoints];
+    const int count = supportFacePoints(-u, face);
     if (count < 2) return;
     const Vec3& a = tri[k];
     const Vec3 e = tri[(k + 1) % 3] - a;
     const double e2 = e.squaredNorm();
-    Vec3 face[SupportShape::kMaxFacePoints];
-    for (int i = 0; i < count; ++i) {
-      face[i] = pose.apply(local[i]);
-      if (!face[i].allFinite()) {  // the shape's error, as in facePatch
-        counters->support_not_finite = true;
-        return;
-      }
-    }
     // The section as an interval of x = (point - a) . e / |e|^2 along the
     // edge, with its two end points.
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -1177,18 +1186,14 @@ struct ConvexNarrowphase {
   // A face tilted within supportFace's slack has one lowest point, which
   // `extreme` is.
   Vec3 overVertex(const Vec3& vertex, const Vec3& u, const Vec3& extreme) const {
-    Vec3 local[SupportShape::kMaxFacePoints];
-    int count = std::min(shape->supportFace(pose.rotation.transpose() * -u, local), SupportShape::kMaxFacePoints);
+    Vec3 points[SupportShape::kMaxFacePoints];
+    int count = supportFacePoints(-u, points);
     if (count < 2) return extreme;
     const Vec3 e1 = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2 = u.cross(e1);
     detail::FacePoint face[SupportShape::kMaxFacePoints];
     const double level = u.dot(extreme);
     for (int i = 0; i < count; ++i) {
-      face[i].p = pose.apply(local[i]);
-      if (!face[i].p.allFinite()) {
-        counters->support_not_finite = true;
-        return extreme;
-      }
+      face[i].p = points[i];
       if (!(std::abs(u.dot(face[i].p) - level) <= 1e-9 * size)) return extreme;
       face[i].x = e1.dot(face[i].p - vertex);
       face[i].y = e2.dot(face[i].p - vertex);
