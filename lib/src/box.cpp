@@ -46,10 +46,16 @@
 //     the owner, whose face contact voids the internal edges near the box's
 //     deepest point. (Closed, not strict: s exactly on an internal edge makes
 //     both neighbours owners, both with the plane's normal, where a strict
-//     test would leave the edge to step 5 on both sides.)
+//     test would leave the edge to step 5 on both sides.) Unless one of step
+//     5's tilted axes needs less than half that push: then the owner's
+//     patch is step 5's, ranked by s's depth (so first), with the face patch
+//     as its stand-in (below). A box tilted by 1e-4 rad beside a plate's
+//     edge, its deepest corner under the plate: the owner's face contact
+//     pushed it up onto the plate by its whole depth below it.
 //  5. Intersecting, not owned: the separating axis of least penetration
-//     among directions with N.n >= 0 (no normal pulls the box through the
-//     triangle's back). Ties and near-ties prefer the triangle normal, then
+//     among directions with N.n >= -sin 15 degrees (kSidewaysDip: no normal
+//     pulls the box through the triangle's back, while a box's side face
+//     tilted by a little still counts as sideways). Ties and near-ties prefer the triangle normal, then
 //     the box faces, then the edges: a later axis must beat the current one
 //     by 5% of |pen| plus 1e-6 of the box's size (Box2D's reference-face
 //     bias, Gregorius' "Robust Contact Creation"). For n the penetration is
@@ -68,12 +74,22 @@
 //     of its triangles, and nothing voids it): they are where the box's lower
 //     envelope is least over the triangle, and that depth (envelopeMinimum),
 //     which orders a plane's triangles so that each such edge is voided by
-//     the deeper neighbour across it.
+//     the deeper neighbour across it. Where that minimum is inside the
+//     triangle (the owner's s, or a box edge's shadow), the feature is the
+//     edge that N leaves the triangle through.
 //     Such a patch also offers its face patch along n (as for N = n) to the
-//     filter as a stand-in: written in its place when a face contact in the
-//     same plane voids it (the surface goes on across the edge: a box sunk
-//     into a tessellated floor over a strip of this triangle narrower than
-//     its depth), never beside it when it is kept (voided_features.h).
+//     filter as a stand-in, never written beside it (voided_features.h):
+//     - in its place when the query's triangles in this plane, together,
+//       need a push along n no larger than along any of the plane's tilted
+//       axes (the surface goes on across the edge: a box sunk into a
+//       tessellated floor over a strip of this triangle narrower than its
+//       depth); and when a face contact in the same plane voids it;
+//     - not at all, nor the patch, when another of the plane's tilted axes
+//       clears all of those triangles cheaply and its own does not (it
+//       pushes along the plane);
+//     - otherwise the tilted patch stands (a plate's or a ledge's edge).
+//     That is why a patch carries the box's least value along N and its
+//     own push along n.
 //  Points deeper than -contact distance are kept; more than 4:
 //  selectManifoldPoints (deepest, then largest area).
 #include "meshcontact/shapes.h"
@@ -113,6 +129,13 @@ Status checkBox(const Box& box, const Pose& pose) {
 // box's size).
 constexpr double kFaceBias = 0.05;
 constexpr double kInteriorFaceBias = 0.5;  // n, when the box is deepest over the face's interior
+// A tilted axis may point below the triangle's plane by up to 15 degrees
+// (sin 15°): pushing along it still moves the box sideways much more than
+// through the plane. A box tilted by a little beside a plate's edge has its
+// side face's normal dipping by the tilt; with the plane itself as the limit
+// (N.n >= 0), a tilt of 1e-4 rad left n the only push, and the box was
+// popped up onto the plate by its whole depth below it.
+constexpr double kSidewaysDip = 0.25881904510252074;
 
 // Ties between closest pairs of a separated box (face preferred), times the
 // box's size.
@@ -131,6 +154,27 @@ struct Axis {
   int kind;               // 1: box face u_i, 2: edge-edge u_i x E_j
   int box_axis, edge;
 };
+
+// Whether some axis pointing at most kSidewaysDip below the plane (step 5's
+// candidates) pushes the box clear of the triangle by less than `limit`: the
+// owner's face contact stands, without step 5, when none does. In squares,
+// without the axes' lengths (a square root each), which step 5 then computes.
+bool tiltedAxisMayBeCheaper(const Axis* axes, int count, const Vec3& n, double limit) {
+  if (!(limit > 0.0)) return false;
+  constexpr double kDip2 = kSidewaysDip * kSidewaysDip;
+  for (int a = 0; a < count; ++a) {
+    const Axis& ax = axes[a];
+    const double length2 = ax.L.squaredNorm(), along = ax.L.dot(n);
+    const double reach2 = limit * limit * length2;
+    for (int o = 0; o < 2; ++o) {
+      const double along_n = o == 0 ? along : -along;
+      if (along_n < 0.0 && along_n * along_n > kDip2 * length2) continue;
+      const double push = o == 0 ? ax.tmax + ax.rb : ax.rb - ax.tmin;  // times |L|
+      if (push < 0.0 || push * push < reach2) return true;
+    }
+  }
+  return false;
+}
 
 // Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman).
 // Each vertex's signed distance is computed once and carried to the next
@@ -779,13 +823,23 @@ struct BoxNarrowphase {
       }
       return PatchOutcome::kContact;
     };
-    if (owned) return own();
 
     // 5. The axis of least penetration, n first. For n the penetration is the
     // exact depth over the triangle: the SAT overlap (box's lowest point
     // anywhere) overstates the push needed when the box's deepest part is not
-    // over this triangle.
-    const DeepestOver over = deepestOverTriangle(v, n, m, e, flat);
+    // over this triangle. The owner's is s's depth, and interior (the
+    // box's deepest point lies over the triangle): its face contact stands
+    // unless a tilted axis needs less than half the push (step 4).
+    if (owned && !tiltedAxisMayBeCheaper(axes, axis_count, n,
+                                         (1.0 - kInteriorFaceBias) * (thickness - centre_height) - 1e-6 * scale))
+      return own();
+    DeepestOver over;
+    if (owned) {
+      over.depth = thickness - centre_height;
+      over.where = s;
+    } else {
+      over = deepestOverTriangle(v, n, m, e, flat);
+    }
     const double n_depth = over.depth;
     const Vec3& deepest_point = over.where;
     struct Best {
@@ -816,7 +870,7 @@ struct BoxNarrowphase {
       const Axis& ax = axes[a];
       for (int o = 0; o < 2; ++o) {
         const double along_n = o == 0 ? along[a] : -along[a];
-        if (along_n < -1e-9) continue;  // would point to the triangle's back
+        if (along_n < -kSidewaysDip) continue;  // would pull the box through the triangle's back
         const double pen = push[a][o];
         const double bias = best.kind == 0 ? n_bias : kFaceBias;
         const double margin =
@@ -831,6 +885,7 @@ struct BoxNarrowphase {
       patch.distance = 0.0;
       return PatchOutcome::kDegenerate;
     }
+    if (owned && best.kind == 0) return own();
     const Vec3& N = best.N;
     // The face patch along n: the incident face clipped to the prism, and
     // the deepest point over the triangle unless it is one of that
@@ -882,32 +937,49 @@ struct BoxNarrowphase {
     // envelope is least over the triangle (envelopeMinimum), so that the
     // neighbour holding the deeper part is met first and voids the edge.
     double key = 0.0;
-    if (envelopeMinimum(v, n, m, e, s, 1e-9 / scale, flat, key, patch.feature)) {
+    if (owned) {  // s, Phi's global minimum
+      patch.feature = Feature::face();
+      patch.distance = -n_depth;
+    } else if (envelopeMinimum(v, n, m, e, s, 1e-9 / scale, flat, key, patch.feature)) {
       patch.distance = key;
     } else {
       patch.feature = maskFeature(over.mask);
       patch.distance = -n_depth;
     }
-    // The minimum inside the triangle: Phi's global one, so the triangle holds
-    // s after all (within round-off).
-    if (patch.feature.type == FeatureType::kFace) return own();
-    // Its stand-in, should a face contact in this face's plane void the edge or
-    // vertex (the filter checks): the face patch along n. So voided, the
-    // surface goes on across the feature (an internal edge): the tilted axis
-    // was least only because this triangle ends there (a box sunk by d over a
-    // strip of it narrower than d), and pushing along it would slide the box
-    // onto the neighbour, not out of the surface. The box's part over this
-    // triangle is still in the surface, and the neighbour's face patch is
-    // clipped to its own prism: without the stand-in, that part (a corner of a
-    // box sunk into a tessellated floor) had no point, and the box stood on a
-    // smaller polygon than its face. Kept (a boundary edge), the tilted patch
-    // stands alone: pushing a box beside a plate's edge up by its depth would
-    // pop it onto the plate.
+    if (patch.feature.type == FeatureType::kFace) {
+      // The minimum inside the triangle: the box is deepest over the face,
+      // and N is a cheaper way out through one of its edges, the one whose
+      // outward normal is closest to N. (The box beside a plate's edge: its
+      // bottom's lowest edge under the plate, or s. Whether the plate goes
+      // on beyond that edge, only the filter can tell.)
+      int exit = 0;
+      double out = -kInf;
+      for (int k = 0; k < 3; ++k) {
+        const double o = -m[k].dot(N) / std::sqrt(m[k].squaredNorm());
+        if (o > out) out = o, exit = k;
+      }
+      patch.feature = Feature::edge(exit);
+    }
+    // Its stand-in, should the surface go on across the feature in this
+    // face's plane (the filter checks): the face patch along n. Then the
+    // tilted axis was least only because this triangle ends there (a box
+    // sunk by d over a strip of it narrower than d), and pushing along it
+    // would slide the box onto the neighbour, not out of the surface. The
+    // box's part over this triangle is still in the surface, and the
+    // neighbour's face patch is clipped to its own prism: without the
+    // stand-in, that part (a corner of a box sunk into a tessellated floor)
+    // had no point, and the box stood on a smaller polygon than its face.
+    // Where the plane ends (a boundary edge), the tilted patch stands alone:
+    // pushing a box beside a plate's edge up by its depth would pop it onto
+    // the plate. For the filter's test, the box's least value along N and
+    // the push along n it must beat (the query frame).
     if (n_depth >= -reach()) {
       Polygon face;
       facePolygon(face);
       patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
       patch.face_normal = queryFrameNormal(n);
+      patch.shape_low = patch.normal.dot(pose.translation) - N.cwiseAbs().dot(e);
+      patch.face_push = (1.0 - n_bias) * n_depth - 1e-6 * scale;
     }
     return PatchOutcome::kContact;
   }

@@ -29,10 +29,17 @@
 //     would void the triangle's own edge and lose a real edge contact (a
 //     core tilted over a cliff edge).
 //     A narrowphase may instead offer its face parts as stand-ins only
-//     (FacePartsStandIn, the box's: see box.cpp, step 5): written in place
-//     of a voided patch whose feature a face contact ranked before it in
-//     the same plane (kStandInCosine) holds, dropped otherwise and with a
-//     kept patch. A query with such parts meets its delayed patches sorted.
+//     (FacePartsStandIn, the box's: see box.cpp, step 5), never written
+//     beside their patch. The query's triangles in the face's plane
+//     (kStandInCosine), together, decide first (markPlanePushes): when no
+//     tilted axis of that plane clears them for less than the push along
+//     the face's normal, the plane goes on and the face part is written in
+//     the patch's place; when another one does and the patch's own does not,
+//     the patch is dropped and voids nothing (its push runs along the
+//     plane). Otherwise the patch's own push stands, and its face part is
+//     written in its place only when it is voided and a face contact ranked
+//     before it in the same plane holds its feature. A query with such parts
+//     meets its delayed patches sorted.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -51,9 +58,21 @@
 
 namespace meshcontact::detail {
 
+/// For a FacePartsStandIn narrowphase's delayed patch with a face part:
+/// which push its plane's triangles, taken together, need (markPlanePushes).
+enum class PlanePush : std::uint8_t {
+  kOwn,   // the patch's own tilted axis clears them cheaply: its push stands
+  kFace,  // no tilted axis does: the plane goes on, the face part stands in
+  kNone,  // another tilted axis does, not this one (it pushes along the
+          // plane, into its triangles beyond): dropped, and voids nothing
+};
+
 /// What a per-triangle narrowphase reports for one candidate.
 struct Patch {
   Feature feature;
+  /// FacePartsStandIn narrowphases only: set by the filter (markPlanePushes;
+  /// in Feature's padding).
+  PlanePush plane_push = PlanePush::kOwn;
   double distance = 0.0;  // shape-to-triangle distance: the delayed sort key (see DefersEdgesAndVertices)
   Vec3 normal = Vec3::UnitZ();
   int count = 0;
@@ -68,6 +87,15 @@ struct Patch {
   Vec3 face_normal = Vec3::UnitZ();
   Vec3 face_points[4];
   double face_depths[4] = {0, 0, 0, 0};
+  /// FacePartsStandIn narrowphases only, on a patch with a face part (the
+  /// sphere's filter never reads them; last, away from the fields it does):
+  /// the shape's least value along `normal` (query frame), and the push along
+  /// a tilted axis from which the face's normal is preferred (the push along
+  /// it, less the bias toward it). markPlanePushes asks whether a push along
+  /// one of the plane's tilted axes clears all of the query's triangles in
+  /// the face's plane for less than that.
+  double shape_low = 0.0;
+  double face_push = 0.0;
 };
 
 enum class PatchOutcome : std::uint8_t { kContact, kBackFacing, kBeyondContactDistance, kDegenerate };
@@ -240,6 +268,10 @@ struct FilterScratch {
   // keep.
   StampedMap<PositionKey, std::uint32_t, PositionHash> position_ids;
   VoidedSet voided_by_position;
+  // markPlanePushes': each entered triangle's unit normal, and
+  // the candidates in one patch's plane.
+  std::vector<Vec3> entered_normals;
+  std::vector<std::uint32_t> coplanar;
 };
 
 /// Up to this many entered triangles, a patch the keys keep is compared
@@ -319,6 +351,65 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
   return Verdict::kDegenerate;
 }
 
+/// Sets Patch::plane_push on each delayed patch with a face part. The
+/// query's triangles in its face's plane (to kStandInCosine), taken
+/// together, are a piece of surface; along a tilted axis L, a push of
+/// max L.w - (the shape's least value along L) clears a triangle of
+/// vertices w. An axis is cheap when it clears them all for less than the
+/// patch's face push (Patch::face_push: the push along the face's normal,
+/// less the bias toward it). The axes tried are the normals of that plane's
+/// delayed patches with face parts, this one's first. A tilted axis is
+/// least for one triangle of a plane when the triangle ends there: at the
+/// plane's boundary (a plate's edge, a ledge's) some tilted axis is cheap
+/// for the whole piece, and pushing the box off sideways is right; where
+/// the plane goes on (an internal edge), none is, and the face part stands
+/// in (a box tilted beside a plate's edge, its deepest corner under the
+/// plate: before, the face contacts of the triangles under that corner
+/// pushed it up onto the plate by its whole depth below it; a box sunk into
+/// a tessellated floor keeps its face contacts). A patch whose own axis is
+/// not cheap while another one is pushes along the plane, into its
+/// triangles beyond (a triangle touching a plate's edge at a vertex only,
+/// its least axis from an internal edge): dropped, and it voids nothing, so
+/// that the patches whose axes are cheap are met as if it were not there.
+inline void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s) {
+  const std::size_t entered = s.voided.size();
+  if (s.entered_normals.size() < entered) s.entered_normals.resize(entered);
+  for (std::size_t t = 0; t < entered; ++t) {
+    const Vec3* w = candidates[s.patch_candidate[s.voided.rank(t).patch]].vertices;
+    s.entered_normals[t] = normalizedOr((w[1] - w[0]).cross(w[2] - w[0]), Vec3::Zero());
+  }
+  for (const SortItem& item : s.delayed) {
+    Patch& p = s.patches[item.patch];
+    if (p.face_count == 0) continue;
+    s.coplanar.clear();
+    for (std::size_t t = 0; t < entered; ++t)
+      if (s.entered_normals[t].dot(p.face_normal) >= kStandInCosine)
+        s.coplanar.push_back(s.patch_candidate[s.voided.rank(t).patch]);
+    const auto cheap = [&](const Patch& a) {
+      double reach = -std::numeric_limits<double>::infinity();
+      for (const std::uint32_t c : s.coplanar) {
+        const Vec3* w = candidates[c].vertices;
+        reach = std::max({reach, a.normal.dot(w[0]), a.normal.dot(w[1]), a.normal.dot(w[2])});
+      }
+      return reach - a.shape_low < p.face_push;
+    };
+    if (cheap(p)) {
+      p.plane_push = PlanePush::kOwn;
+      continue;
+    }
+    p.plane_push = PlanePush::kFace;
+    for (const SortItem& other : s.delayed) {
+      const Patch& a = s.patches[other.patch];
+      if (other.patch == item.patch || a.face_count == 0 || a.face_normal.dot(p.face_normal) < kStandInCosine)
+        continue;
+      if (cheap(a)) {
+        p.plane_push = PlanePush::kNone;
+        break;
+      }
+    }
+  }
+}
+
 /// Runs `narrowphase(const CandidateTriangle&, Patch&) -> PatchOutcome` on
 /// every candidate, filters, and writes the kept contacts sorted by
 /// (mesh, triangle).
@@ -364,7 +455,10 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!filter && p.feature.type != FeatureType::kFace) narrowphase.finish(c, p);  // kept as it comes
     }
     const bool face = p.feature.type == FeatureType::kFace || !filter;
-    if constexpr (stand_in_parts) stand_ins |= !face && p.face_count > 0;
+    if constexpr (stand_in_parts) {
+      stand_ins |= !face && p.face_count > 0;
+      p.plane_push = PlanePush::kOwn;
+    }
     SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
     item.distance = p.distance;
     item.mesh = c.mesh;
@@ -381,37 +475,50 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // stand-in: whether a patch ranked before it has become a face must not
   // depend on the midphase's order.
   if (stand_in_parts && stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
+  if (stand_in_parts && stand_ins) markPlanePushes(candidates, s);
   bool positions_built = false;
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
-    bool voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
-    if (!voided && identity == VertexIdentity::kKeysOrPositions)
-      voided = voidedByPosition(candidates, s, p.feature, c, item, positions_built);
+    bool voided;
+    if (stand_in_parts && stand_ins) {  // a patch withdrawn by its plane voids nothing
+      const auto holds = [&](const SortItem& r) { return s.patches[r.patch].plane_push != PlanePush::kNone; };
+      const int i = p.feature.index;
+      voided = p.plane_push == PlanePush::kNone ||
+               s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, holds);
+      if (!voided && identity == VertexIdentity::kKeysOrPositions)
+        voided = heldByPosition(candidates, s, p.feature, c, item, positions_built, holds);
+    } else {
+      voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
+      if (!voided && identity == VertexIdentity::kKeysOrPositions)
+        voided = voidedByPosition(candidates, s, p.feature, c, item, positions_built);
+    }
     if (stand_in_parts && p.face_count > 0) {
-      // A stand-in only where the surface goes on in the face's plane: a
-      // face contact ranked before this patch (of the first pass, or a
-      // stand-in: the patches are met in rank order then), its normal
-      // within 3 degrees of this face's (kStandInCosine), holds the
+      // A stand-in only where the surface goes on in the face's plane: its
+      // triangles need no cheaper tilted push (markPlanePushes), or the
+      // patch is voided and a face contact ranked before it (of the first
+      // pass, or a stand-in: the patches are met in rank order then), its
+      // normal within 3 degrees of this face's (kStandInCosine), holds the
       // feature. Held only by a wall (a box beside a cliff, its centre over
       // the ledge, the ledge's edge voided by the wall's face contacts) or
       // by other delayed patches, the stand-in would push the box onto the
       // ledge: none.
       bool stand_in = false;
+      const Vec3 normal = p.face_normal;
+      const int i = p.feature.index;
       if (voided) {
-        const Vec3 normal = p.face_normal;
         const auto coplanar_face = [&](const SortItem& r) {
           const Patch& q = s.patches[r.patch];
           return q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= kStandInCosine;
         };
-        const int i = p.feature.index;
         stand_in = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);
         if (!stand_in && identity == VertexIdentity::kKeysOrPositions)
           stand_in = heldByPosition(candidates, s, p.feature, c, item, positions_built, coplanar_face);
       }
+      stand_in = p.plane_push == PlanePush::kFace || (stand_in && p.plane_push == PlanePush::kOwn);
       if (!stand_in) p.face_count = 0;
     }
-    const bool face_only = voided && p.face_count > 0;
+    const bool face_only = (voided || stand_in_parts) && p.face_count > 0;
     if (face_only) {  // the patch becomes its face part
       p.feature = Feature::face();
       p.normal = p.face_normal;
