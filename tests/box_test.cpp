@@ -408,33 +408,58 @@ TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
 
 // The cliff figure's other two places, tilted by up to 0.05 rad and yawed by
 // up to 0.2: resting on the upper floor overhanging the edge, and on the
-// lower floor pressed into the wall, sunk 0.02. Only the floor's and the
-// wall's normals: a ledge triangle that the box covers only in part had a
-// tilted axis that pushed the box along the edge (13 and 11 of 1,000
-// placements), kept because nothing voids the cliff's edge.
+// lower floor pressed into the wall, sunk 0.02 (and, within a contact
+// distance of 0.02, sunk 0.01 or hovering 0.005 above the floor).
+// - Over the edge, only the floor's normal: a ledge triangle that the box
+//   covers only in part had a tilted axis that pushed the box along the
+//   edge, kept because nothing voids the cliff's edge (13 of 1,000), and a
+//   hovering box's triangles away from its lowest corner gave edge and
+//   vertex pairs, tilted by its tilt (416 of 1,000).
+// - At the wall's foot, the floor's and the wall's normals at contact
+//   distance 0 (11 of 1,000 had others), and never a contact from the
+//   upper floor pushing the box up (the lower floor, parallel to it, is not
+//   its plane: counted as such, 6 of 1,000 hovering boxes were pushed up by
+//   up to 0.4). Within the contact distance the wall's top edge may also
+//   give an edge contact to a box leaning toward it.
 TEST(BoxFigures, TiltedAtACliffOnlyItsPlanesNormals) {
   const TriangleMesh mesh = testing::buildMesh(scenes::step(2.0, 1.0, 0.25, 8));
   QueryScratch scratch;
   std::vector<Contact> contacts;
-  for (const bool on_ledge : {true, false}) {
-    scenes::Rng rng(on_ledge ? 6 : 5);
-    for (int i = 0; i < 1000; ++i) {
-      const Vec3 e(rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5), rng.uniform(0.1, 1.0));
-      const double yaw = rng.uniform(-0.2, 0.2), about = rng.uniform(0, 2 * M_PI), tilt = rng.uniform(0, 0.05);
-      const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(about), std::sin(about), 0)).toRotationMatrix() *
-                     Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-      const Vec3 reach = r.cwiseAbs() * e;
-      const double w = rng.uniform(0.001, 0.03);
-      const Vec3 centre = on_ledge ? Vec3(-rng.uniform(0.0, reach.x()), rng.uniform(-1, 1), 1.0 + reach.z() - 0.02)
-                                   : Vec3(reach.x() - w, rng.uniform(-1, 1), reach.z() - 0.02);
-      ASSERT_TRUE(collideBox(mesh, Box{e}, poseFrom(r, centre), QuerySettings(), scratch, contacts).isOk());
-      const std::string config =
-          std::string(on_ledge ? "over the edge" : "at the wall's foot") + ", placement " + std::to_string(i);
-      EXPECT_FALSE(contacts.empty()) << config;
-      for (const Contact& c : contacts) {
-        const bool floor = angleDeg(c.normal, Vec3::UnitZ()) < 1e-6, wall = angleDeg(c.normal, Vec3::UnitX()) < 1e-6;
-        EXPECT_TRUE(floor || (wall && !on_ledge)) << config << ": normal " << str(c.normal) << " depth " << c.depth;
-        EXPECT_LE(c.depth, floor ? 0.02 + 1e-9 : w + 1e-9) << config << ": normal " << str(c.normal);
+  const struct {
+    double contact_distance, sink;
+  } cases[] = {{0.0, 0.02}, {0.02, 0.01}, {0.02, -0.005}};
+  for (const auto& k : cases) {
+    QuerySettings settings;
+    settings.contact_distance = k.contact_distance;
+    for (const bool on_ledge : {true, false}) {
+      scenes::Rng rng(on_ledge ? 6 : 5);
+      for (int i = 0; i < 1000; ++i) {
+        const Vec3 e(rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5), rng.uniform(0.1, 1.0));
+        const double yaw = rng.uniform(-0.2, 0.2), about = rng.uniform(0, 2 * M_PI), tilt = rng.uniform(0, 0.05);
+        const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(about), std::sin(about), 0)).toRotationMatrix() *
+                       Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+        const Vec3 reach = r.cwiseAbs() * e;
+        const double w = rng.uniform(0.001, 0.03);
+        const Vec3 centre = on_ledge ? Vec3(-rng.uniform(0.0, reach.x()), rng.uniform(-1, 1), 1.0 + reach.z() - k.sink)
+                                     : Vec3(reach.x() - w, rng.uniform(-1, 1), reach.z() - k.sink);
+        ASSERT_TRUE(collideBox(mesh, Box{e}, poseFrom(r, centre), settings, scratch, contacts).isOk());
+        const std::string config = std::string(on_ledge ? "over the edge" : "at the wall's foot") + ", sunk " +
+                                   std::to_string(k.sink) + ", contact distance " +
+                                   std::to_string(k.contact_distance) + ", placement " + std::to_string(i);
+        EXPECT_FALSE(contacts.empty()) << config;
+        for (const Contact& c : contacts) {
+          const bool floor = angleDeg(c.normal, Vec3::UnitZ()) < 1e-6;
+          const bool wall = angleDeg(c.normal, Vec3::UnitX()) < 1e-6;
+          if (on_ledge || k.contact_distance == 0.0) {
+            EXPECT_TRUE(floor || (wall && !on_ledge)) << config << ": normal " << str(c.normal) << " depth " << c.depth;
+          }
+          if (floor) {
+            EXPECT_LE(c.depth, k.sink + 1e-9) << config << ": point " << str(c.point);
+          }
+          if (wall) {
+            EXPECT_LE(c.depth, w + 1e-9) << config << ": point " << str(c.point);
+          }
+        }
       }
     }
   }
@@ -613,6 +638,42 @@ TEST(BoxFloor, SetDownBesideAnEdgeStaysOnItsSide) {
 // voids: the corner over it had no point (103 of 2,000 placements at 0.01
 // lost part of a corner region, 527 at 0.05, some a whole corner) until
 // the face patch stood in for the voided one.
+// A box tilted by 1e-6 to 1e-3 rad, its lowest corner touching a unit grid
+// or 0.005 above it, all four bottom corners within the contact distance
+// (0.01): each gets a contact under it, with the floor's normal. The
+// triangles away from the lowest corner are apart from the box, their
+// closest pair an edge or a vertex (the box's face slopes up away from that
+// corner), and the filter voided all of them but the nearest: 3 contacts
+// near one corner, on 1,000 of 1,000 placements.
+TEST(BoxFloor, HoveringWithinTheContactDistanceKeepsItsCorners) {
+  const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(8));
+  scenes::Rng rng(3);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  for (int i = 0; i < 1000; ++i) {
+    const Vec3 e(rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.05, 0.5));
+    const double yaw = rng.uniform(0, 2 * M_PI), about = rng.uniform(0, 2 * M_PI);
+    const double tilt = std::pow(10.0, rng.uniform(-6, -3));
+    const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(about), std::sin(about), 0)).toRotationMatrix() *
+                   Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+    const double lowest = e.dot((r.transpose() * Vec3::UnitZ()).cwiseAbs());
+    const double x = rng.uniform(2, 6), y = rng.uniform(2, 6);
+    const Pose pose = poseFrom(r, Vec3(x, y, lowest + (i % 2 == 0 ? 0.0 : 0.005)));
+    ASSERT_TRUE(collideBox(mesh, Box{e}, pose, settings, scratch, contacts).isOk());
+    const std::string config = "placement " + std::to_string(i) + ", tilt " + std::to_string(tilt);
+    for (const Contact& c : contacts) EXPECT_LT(angleDeg(c.normal, Vec3::UnitZ()), 1e-6) << config;
+    for (const double cx : {-e.x(), e.x()})
+      for (const double cy : {-e.y(), e.y()}) {
+        const Vec3 corner = pose.apply(Vec3(cx, cy, -e.z()));
+        double nearest = INFINITY;
+        for (const Contact& c : contacts) nearest = std::min(nearest, (c.point - corner).head<2>().norm());
+        EXPECT_LT(nearest, 0.01 * std::min(e.x(), e.y())) << config << ": corner " << str(corner);
+      }
+  }
+}
+
 TEST(BoxFloor, SunkBoxKeepsItsCorners) {
   scenes::Rng rng(23);
   QueryScratch scratch;

@@ -37,6 +37,10 @@
 //     point, or, when that direction is a box face's normal (a box face
 //     parallel to the triangle's edge or facing its vertex), the triangle
 //     clipped to that face's side planes (a line contact gets 2 points).
+//     An edge or vertex pair along n (to 3 degrees: the box's face nearly
+//     level, held up elsewhere) offers its face patch, the incident face
+//     clipped to the prism at its distances, in its place: written when
+//     the patch is kept, or voided by a face contact in the same plane.
 //  4. Intersecting, ownership: s = the box's deepest point below the plane,
 //     the average of the lowest corners when several tie (a box lying flat:
 //     its bottom face's centre). When s projects onto the closed triangle
@@ -802,6 +806,24 @@ struct BoxNarrowphase {
         }
       }
       if (!finish(poly, N, patch)) return PatchOutcome::kBeyondContactDistance;
+      // An edge or vertex pair along the plane's normal (to 3 degrees): the
+      // box's face nearly level over this triangle, held up by its closest
+      // corner elsewhere (a box tilted by 1e-4 rad hovering within the
+      // contact distance). Its face part, the incident face clipped to the
+      // prism, stands in should a face contact in this plane void the
+      // feature (the filter meets these patches by distance from that
+      // contact outward): without it the tiles of the floor away from the
+      // lowest corner had no point, and the box had 3 contacts near one
+      // corner, on every such placement. Not a push (the box is apart):
+      // face_push infinite, which markPlanePushes leaves to that rule.
+      if (pair.feature.type != FeatureType::kFace && N.dot(n) >= detail::kStandInCosine) {
+        Polygon face;
+        incidentFace(v, n, m, e, flat, face);
+        patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
+        patch.face_normal = queryFrameNormal(n);
+        patch.shape_low = 0.0;
+        patch.face_push = kInf;
+      }
       return PatchOutcome::kContact;
     }
 

@@ -127,6 +127,7 @@ struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesA
 /// 3 degrees is that setting's default: a tessellated plane or a gently
 /// curved terrain continues across the edge.
 inline constexpr double kStandInCosine = 0.9986295347545738;  // cos(3 degrees)
+inline constexpr double kStandInSine2 = 1.0 - kStandInCosine * kStandInCosine;  // sin^2(3 degrees)
 template <class N, class = void>
 struct FacePartsStandIn : std::false_type {};
 template <class N>
@@ -380,11 +381,27 @@ inline void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& 
   }
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
-    if (p.face_count == 0) continue;
+    if (p.face_count == 0 || !(p.face_push < std::numeric_limits<double>::infinity())) continue;  // kOwn
     s.coplanar.clear();
-    for (std::size_t t = 0; t < entered; ++t)
-      if (s.entered_normals[t].dot(p.face_normal) >= kStandInCosine)
-        s.coplanar.push_back(s.patch_candidate[s.voided.rank(t).patch]);
+    const Vec3* own = candidates[s.patch_candidate[item.patch]].vertices;
+    for (std::size_t t = 0; t < entered; ++t) {
+      if (s.entered_normals[t].dot(p.face_normal) < kStandInCosine) continue;
+      // In the plane too, not only parallel to it (a ledge's triangles and
+      // the floor below the cliff): each corner seen from the nearest of
+      // this triangle's within 3 degrees of the plane.
+      const std::uint32_t c = s.patch_candidate[s.voided.rank(t).patch];
+      bool in_plane = true;
+      for (int k = 0; k < 3 && in_plane; ++k) {
+        const Vec3& w = candidates[c].vertices[k];
+        double d2 = (w - own[0]).squaredNorm();
+        Vec3 from = own[0];
+        for (int j = 1; j < 3; ++j)
+          if ((w - own[j]).squaredNorm() < d2) d2 = (w - own[j]).squaredNorm(), from = own[j];
+        const double height = p.face_normal.dot(w - from);
+        in_plane = height * height <= kStandInSine2 * d2;
+      }
+      if (in_plane) s.coplanar.push_back(c);
+    }
     const auto cheap = [&](const Patch& a) {
       double reach = -std::numeric_limits<double>::infinity();
       for (const std::uint32_t c : s.coplanar) {
@@ -400,7 +417,8 @@ inline void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& 
     p.plane_push = PlanePush::kFace;
     for (const SortItem& other : s.delayed) {
       const Patch& a = s.patches[other.patch];
-      if (other.patch == item.patch || a.face_count == 0 || a.face_normal.dot(p.face_normal) < kStandInCosine)
+      if (other.patch == item.patch || a.face_count == 0 || !(a.face_push < std::numeric_limits<double>::infinity()) ||
+          a.face_normal.dot(p.face_normal) < kStandInCosine)
         continue;
       if (cheap(a)) {
         p.plane_push = PlanePush::kNone;
@@ -515,6 +533,11 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
         if (!stand_in && identity == VertexIdentity::kKeysOrPositions)
           stand_in = heldByPosition(candidates, s, p.feature, c, item, positions_built, coplanar_face);
       }
+      // A patch that is no push (infinite face_push: the box's separated
+      // edge or vertex pair along the face's normal, box.cpp step 3) and is
+      // kept: the face part, the box's points over the face at their
+      // distances, says more than the one closest point.
+      if (!voided && !(p.face_push < std::numeric_limits<double>::infinity())) stand_in = true;
       stand_in = p.plane_push == PlanePush::kFace || (stand_in && p.plane_push == PlanePush::kOwn);
       if (!stand_in) p.face_count = 0;
     }
