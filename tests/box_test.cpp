@@ -465,6 +465,35 @@ TEST(BoxFigures, TiltedAtACliffOnlyItsPlanesNormals) {
   }
 }
 
+// An upright box at the foot of a 0.1 step, sunk 0.0347 into the lower
+// floor and pressed 0.02 into the wall, at 361 yaws: never pushed up onto
+// the ledge. The ledge triangles over the box's corner each chose a box
+// face's axis, which the ledge (long along the wall) does not end along;
+// only the axis straight out across the ledge's edge, which the wall's
+// triangles hold, clears it cheaply (popped at 14 of 361 yaws before that
+// axis was tried; at all 361 while the floor below, parallel to the ledge,
+// counted as the ledge's plane).
+TEST(BoxFigures, AtAStepsFootNotPoppedUp) {
+  const TriangleMesh mesh = testing::buildMesh(scenes::step(2.0, 0.1, 0.25, 11));
+  const Vec3 e(0.35793355432284102, 0.24813163079242739, 0.40610893294049166);
+  const double sink = 0.0347;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (int i = 0; i <= 360; ++i) {
+    const double yaw = 2 * M_PI * i / 360;
+    const Mat3 r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+    const Vec3 reach = r.cwiseAbs() * e;
+    const Pose pose = poseFrom(r, Vec3(reach.x() - 0.02, -0.19787124992668759, reach.z() - sink));
+    ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+    EXPECT_FALSE(contacts.empty()) << "yaw " << yaw;
+    for (const Contact& c : contacts) {
+      if (angleDeg(c.normal, Vec3::UnitZ()) < 1e-6) {
+        EXPECT_LE(c.depth, sink + 1e-9) << "yaw " << yaw << ": popped up";
+      }
+    }
+  }
+}
+
 TEST(BoxFigures, VGroove) {
   // 30-degree slopes: left (x < 0) normal (sin30, 0, cos30), right (-sin30, 0, cos30).
   const SceneMesh m = scenes::vGroove(2.0, 30.0, 0.25, 9);

@@ -83,17 +83,17 @@
 //     edge that N leaves the triangle through.
 //     Such a patch also offers its face patch along n (as for N = n) to the
 //     filter as a stand-in, never written beside it (voided_features.h):
-//     - in its place when the query's triangles in this plane, together,
-//       need a push along n no larger than along any of the plane's tilted
-//       axes (the surface goes on across the edge: a box sunk into a
-//       tessellated floor over a strip of this triangle narrower than its
-//       depth); and when a face contact in the same plane voids it;
-//     - not at all, nor the patch, when another of the plane's tilted axes
-//       clears all of those triangles cheaply and its own does not (it
-//       pushes along the plane);
+//     - in its place when no tilted axis clears the query's triangles of
+//       this plane connected to it (its piece of surface) for less than
+//       the push along n (the surface goes on across the edge: a box sunk
+//       into a tessellated floor over a strip of this triangle narrower
+//       than its depth); and when a face contact in the same plane voids
+//       it;
+//     - not at all, nor the patch, when another tilted axis clears the
+//       piece cheaply and its own does not (it pushes along the plane);
 //     - otherwise the tilted patch stands (a plate's or a ledge's edge).
-//     That is why a patch carries the box's least value along N and its
-//     own push along n.
+//     That is why a patch carries its push along n, less the bias toward it
+//     (face_push), and the narrowphase gives the box's extent along an axis.
 //  Points deeper than -contact distance are kept; more than 4:
 //  selectManifoldPoints (deepest, then largest area).
 #include "meshcontact/shapes.h"
@@ -666,6 +666,14 @@ struct BoxNarrowphase {
     return n;
   }
 
+  /// The box's least and greatest values along a unit axis of the query
+  /// frame (the filter's plane test, markPlanePushes).
+  void extentAlong(const Vec3& axis, double& low, double& high) const {
+    const double centre = axis.dot(pose.translation), half = (pose.rotation.transpose() * axis).cwiseAbs().dot(e);
+    low = centre - half;
+    high = centre + half;
+  }
+
   /// A unit normal of the box frame, in the query frame. The validation
   /// accepts rotations with |R^T R - I| up to 1e-9 per entry, and such an R
   /// stretches a unit vector by up to ~1.5e-9 (3 * 1e-9 / 2, along (1,1,1)):
@@ -821,7 +829,6 @@ struct BoxNarrowphase {
         incidentFace(v, n, m, e, flat, face);
         patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
         patch.face_normal = queryFrameNormal(n);
-        patch.shape_low = 0.0;
         patch.face_push = kInf;
       }
       return PatchOutcome::kContact;
@@ -993,14 +1000,13 @@ struct BoxNarrowphase {
     // had no point, and the box stood on a smaller polygon than its face.
     // Where the plane ends (a boundary edge), the tilted patch stands alone:
     // pushing a box beside a plate's edge up by its depth would pop it onto
-    // the plate. For the filter's test, the box's least value along N and
-    // the push along n it must beat (the query frame).
+    // the plate. For the filter's test, the push along n that a tilted axis
+    // must beat.
     if (n_depth >= -reach()) {
       Polygon face;
       facePolygon(face);
       patch.face_count = keepPoints(face, n, patch.face_points, patch.face_depths);
       patch.face_normal = queryFrameNormal(n);
-      patch.shape_low = patch.normal.dot(pose.translation) - N.cwiseAbs().dot(e);
       patch.face_push = (1.0 - n_bias) * n_depth - 1e-6 * scale;
     }
     return PatchOutcome::kContact;

@@ -31,15 +31,16 @@
 //     A narrowphase may instead offer its face parts as stand-ins only
 //     (FacePartsStandIn, the box's: see box.cpp, step 5), never written
 //     beside their patch. The query's triangles in the face's plane
-//     (kStandInCosine), together, decide first (markPlanePushes): when no
-//     tilted axis of that plane clears them for less than the push along
-//     the face's normal, the plane goes on and the face part is written in
-//     the patch's place; when another one does and the patch's own does not,
-//     the patch is dropped and voids nothing (its push runs along the
-//     plane). Otherwise the patch's own push stands, and its face part is
-//     written in its place only when it is voided and a face contact ranked
-//     before it in the same plane holds its feature. A query with such parts
-//     meets its delayed patches sorted.
+//     (kStandInCosine) connected to it, together, decide first
+//     (markPlanePushes): when no tilted axis clears them for less than the
+//     push along the face's normal, the surface goes on and the face part is
+//     written in the patch's place; when another axis does and the patch's
+//     own does not, the patch is dropped and voids nothing (its push runs
+//     along the surface). Otherwise the patch's own push stands, and its
+//     face part is written in its place only when it is voided and a face
+//     contact ranked before it in the same plane holds its feature (or,
+//     for a patch that is no push, when it is kept). A query with such
+//     parts meets its delayed patches sorted.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -59,7 +60,7 @@
 namespace meshcontact::detail {
 
 /// For a FacePartsStandIn narrowphase's delayed patch with a face part:
-/// which push its plane's triangles, taken together, need (markPlanePushes).
+/// which push its piece of surface needs (markPlanePushes).
 enum class PlanePush : std::uint8_t {
   kOwn,   // the patch's own tilted axis clears them cheaply: its push stands
   kFace,  // no tilted axis does: the plane goes on, the face part stands in
@@ -88,13 +89,10 @@ struct Patch {
   Vec3 face_points[4];
   double face_depths[4] = {0, 0, 0, 0};
   /// FacePartsStandIn narrowphases only, on a patch with a face part (the
-  /// sphere's filter never reads them; last, away from the fields it does):
-  /// the shape's least value along `normal` (query frame), and the push along
-  /// a tilted axis from which the face's normal is preferred (the push along
-  /// it, less the bias toward it). markPlanePushes asks whether a push along
-  /// one of the plane's tilted axes clears all of the query's triangles in
-  /// the face's plane for less than that.
-  double shape_low = 0.0;
+  /// sphere's filter never reads it; last, away from the fields it does):
+  /// the push along a tilted axis from which the face's normal is preferred
+  /// (the push along it, less the bias toward it); +infinity on a patch
+  /// that is no push (markPlanePushes).
   double face_push = 0.0;
 };
 
@@ -112,13 +110,15 @@ struct DefersEdgesAndVertices : std::false_type {};
 template <class N>
 struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesAndVertices>> : std::true_type {};
 
-/// A narrowphase whose face parts only stand in for voided patches (static
+/// A narrowphase whose face parts only stand in for their patches (static
 /// constexpr bool kFacePartsStandIn = true; see the top of this file): a
-/// face part is written in place of a voided patch when a face contact
-/// ranked before it, its normal within 3 degrees of the part's
-/// (kStandInCosine), holds the voided feature, and never beside a kept
-/// patch. A compile-time choice: the sphere's filter, which has no face
-/// parts, pays nothing.
+/// face part is written in its patch's place where the surface goes on
+/// (markPlanePushes), or when a face contact ranked before it, its normal
+/// within 3 degrees of the part's (kStandInCosine), holds the voided
+/// feature; never beside a kept patch. Such a narrowphase gives the
+/// shape's extent along an axis: extentAlong(axis, low, high). A
+/// compile-time choice: the sphere's filter, which has no face parts, pays
+/// nothing.
 ///
 /// The angle is the library's own, not the settings' manifold_angle_deg
 /// (which may be anything below 90 degrees, for the reduction's sake): at
@@ -127,7 +127,6 @@ struct DefersEdgesAndVertices<N, std::enable_if_t<std::decay_t<N>::kDefersEdgesA
 /// 3 degrees is that setting's default: a tessellated plane or a gently
 /// curved terrain continues across the edge.
 inline constexpr double kStandInCosine = 0.9986295347545738;  // cos(3 degrees)
-inline constexpr double kStandInSine2 = 1.0 - kStandInCosine * kStandInCosine;  // sin^2(3 degrees)
 template <class N, class = void>
 struct FacePartsStandIn : std::false_type {};
 template <class N>
@@ -269,10 +268,23 @@ struct FilterScratch {
   // keep.
   StampedMap<PositionKey, std::uint32_t, PositionHash> position_ids;
   VoidedSet voided_by_position;
-  // markPlanePushes': each entered triangle's unit normal, and
-  // the candidates in one patch's plane.
+  // markPlanePushes': per entered triangle (entry order = patch order) its
+  // unit normal and its piece (union-find parent); the pieces' open edges
+  // and creases as (piece, entered triangle, edge), sorted by piece; per
+  // piece, the least push of its axes (NaN: not computed yet).
+  struct PieceEdge {
+    std::uint32_t piece, triangle, edge;
+    bool operator<(const PieceEdge& o) const {
+      if (piece != o.piece) return piece < o.piece;
+      if (triangle != o.triangle) return triangle < o.triangle;
+      return edge < o.edge;
+    }
+  };
   std::vector<Vec3> entered_normals;
-  std::vector<std::uint32_t> coplanar;
+  std::vector<std::uint32_t> piece_parent;
+  std::vector<PieceEdge> open_edges, creases;
+  std::vector<std::uint32_t> piece_axes;  // delayed patches that are pushes, by piece (sorted)
+  std::vector<double> piece_least_push;
 };
 
 /// Up to this many entered triangles, a patch the keys keep is compared
@@ -352,79 +364,156 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
   return Verdict::kDegenerate;
 }
 
-/// Sets Patch::plane_push on each delayed patch with a face part. The
-/// query's triangles in its face's plane (to kStandInCosine), taken
-/// together, are a piece of surface; along a tilted axis L, a push of
-/// max L.w - (the shape's least value along L) clears a triangle of
-/// vertices w. An axis is cheap when it clears them all for less than the
-/// patch's face push (Patch::face_push: the push along the face's normal,
-/// less the bias toward it). The axes tried are the normals of that plane's
-/// delayed patches with face parts, this one's first. A tilted axis is
-/// least for one triangle of a plane when the triangle ends there: at the
-/// plane's boundary (a plate's edge, a ledge's) some tilted axis is cheap
-/// for the whole piece, and pushing the box off sideways is right; where
-/// the plane goes on (an internal edge), none is, and the face part stands
-/// in (a box tilted beside a plate's edge, its deepest corner under the
-/// plate: before, the face contacts of the triangles under that corner
-/// pushed it up onto the plate by its whole depth below it; a box sunk into
-/// a tessellated floor keeps its face contacts). A patch whose own axis is
-/// not cheap while another one is pushes along the plane, into its
-/// triangles beyond (a triangle touching a plate's edge at a vertex only,
-/// its least axis from an internal edge): dropped, and it voids nothing, so
-/// that the patches whose axes are cheap are met as if it were not there.
-inline void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s) {
-  const std::size_t entered = s.voided.size();
-  if (s.entered_normals.size() < entered) s.entered_normals.resize(entered);
-  for (std::size_t t = 0; t < entered; ++t) {
-    const Vec3* w = candidates[s.patch_candidate[s.voided.rank(t).patch]].vertices;
-    s.entered_normals[t] = normalizedOr((w[1] - w[0]).cross(w[2] - w[0]), Vec3::Zero());
+/// Sets Patch::plane_push on each delayed patch with a face part that is a
+/// push (finite face_push). Its piece of surface: the query's triangles
+/// connected to it through shared edges between triangles whose normals
+/// agree to kStandInCosine. Along a tilted unit axis L, a push of
+/// max L.w - (the shape's least value along L) clears the piece (w over
+/// the vertices of its open edges, those no other triangle of the piece
+/// holds: a linear function is greatest on a region's boundary); L is
+/// cheap when that is less than the patch's face push (Patch::face_push:
+/// the push along the face's normal, less the bias toward it) and the
+/// shape reaches beyond the piece along L (it overhangs the piece's end
+/// there; else the surface may go on under it beyond the triangles the
+/// query met: a plank sunk deeper than it is thick was pushed off the few
+/// triangles under it). Axes tried: the normals of the piece's delayed
+/// patches that are pushes, and straight out across a crease (an edge of
+/// the piece that a triangle of another surface holds: a ledge's edge, the
+/// cliff's wall below it).
+///
+/// A tilted axis is least for one triangle when the triangle ends there:
+/// at the surface's end (a plate's edge, a ledge's) some axis is cheap for
+/// the whole piece, and pushing the shape off sideways is right; where the
+/// surface goes on (an internal edge), none is, and the face part stands in.
+/// (A box tilted by 1e-4 rad beside a plate's edge, its deepest corner under
+/// the plate: the face contacts of the triangles under that corner pushed it
+/// up onto the plate by its whole depth below it. A box sunk into a
+/// tessellated floor keeps its face contacts.) A patch whose own axis is not
+/// cheap while another is pushes along the surface, into the piece's
+/// triangles beyond it (a triangle touching a plate's edge at a vertex
+/// only, its least axis from an internal edge): dropped, and it voids
+/// nothing, so that the patches whose axes are cheap are met as if it were
+/// not there. The narrowphase gives the shape's extent along an axis
+/// (extentAlong(axis, low, high), query frame).
+///
+/// Cost: one walk over the entered triangles' edges, then per piece its
+/// axes times its open edges (a box sunk into a fine floor: hundreds of
+/// triangles under it, their open edges only around its footprint).
+template <class Narrowphase>
+void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, VertexIdentity identity,
+                     const Narrowphase& narrowphase) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const std::size_t entered = s.voided.size();  // entry t holds patch t
+  if (s.entered_normals.size() < entered) {
+    s.entered_normals.resize(entered);
+    s.piece_parent.resize(entered);
+    s.piece_least_push.resize(entered);
   }
-  for (const SortItem& item : s.delayed) {
-    Patch& p = s.patches[item.patch];
-    if (p.face_count == 0 || !(p.face_push < std::numeric_limits<double>::infinity())) continue;  // kOwn
-    s.coplanar.clear();
-    const Vec3* own = candidates[s.patch_candidate[item.patch]].vertices;
-    for (std::size_t t = 0; t < entered; ++t) {
-      if (s.entered_normals[t].dot(p.face_normal) < kStandInCosine) continue;
-      // In the plane too, not only parallel to it (a ledge's triangles and
-      // the floor below the cliff): each corner seen from the nearest of
-      // this triangle's within 3 degrees of the plane.
-      const std::uint32_t c = s.patch_candidate[s.voided.rank(t).patch];
-      bool in_plane = true;
-      for (int k = 0; k < 3 && in_plane; ++k) {
-        const Vec3& w = candidates[c].vertices[k];
-        double d2 = (w - own[0]).squaredNorm();
-        Vec3 from = own[0];
-        for (int j = 1; j < 3; ++j)
-          if ((w - own[j]).squaredNorm() < d2) d2 = (w - own[j]).squaredNorm(), from = own[j];
-        const double height = p.face_normal.dot(w - from);
-        in_plane = height * height <= kStandInSine2 * d2;
+  for (std::size_t t = 0; t < entered; ++t) {
+    const Vec3* w = candidates[s.patch_candidate[t]].vertices;
+    s.entered_normals[t] = normalizedOr((w[1] - w[0]).cross(w[2] - w[0]), Vec3::Zero());
+    s.piece_parent[t] = static_cast<std::uint32_t>(t);
+    s.piece_least_push[t] = std::numeric_limits<double>::quiet_NaN();
+  }
+  const auto find = [&](std::uint32_t t) {
+    while (s.piece_parent[t] != t) t = s.piece_parent[t] = s.piece_parent[s.piece_parent[t]];
+    return t;
+  };
+  // Each entered triangle's edges against the other entered triangles that
+  // hold them: same surface (unite), another surface (a crease), or none
+  // of the same surface (an open edge).
+  s.open_edges.clear();
+  s.creases.clear();
+  const SortItem any{kInf, ~0u, ~0u, ~0u};
+  bool positions_built = false;
+  for (std::size_t t = 0; t < entered; ++t) {
+    const CandidateTriangle& c = candidates[s.patch_candidate[t]];
+    for (int k = 0; k < 3; ++k) {
+      bool same = false, other = false;
+      const auto visit = [&](const SortItem& r) {
+        if (r.patch == t) return false;
+        if (s.entered_normals[r.patch].dot(s.entered_normals[t]) >= kStandInCosine) {
+          same = true;
+          const std::uint32_t a = find(static_cast<std::uint32_t>(t)), b = find(r.patch);
+          if (a != b) s.piece_parent[a] = b;
+        } else {
+          other = true;
+        }
+        return false;  // every holder
+      };
+      s.voided.isHeldBefore(FeatureType::kEdge, c.keys[k], c.keys[(k + 1) % 3], any, visit);
+      if (identity == VertexIdentity::kKeysOrPositions) {
+        if (entered <= kPositionScanLimit) {  // heldByPosition's scan asks its holder before it compares
+          const Vec3& a = c.vertices[k];
+          const Vec3& b = c.vertices[(k + 1) % 3];
+          for (std::size_t i = 0; i < entered; ++i) {
+            const Vec3* v = candidates[s.patch_candidate[i]].vertices;
+            if ((v[0] == a || v[1] == a || v[2] == a) && (v[0] == b || v[1] == b || v[2] == b)) visit(s.voided.rank(i));
+          }
+        } else {
+          heldByPosition(candidates, s, Feature::edge(k), c, any, positions_built, visit);
+        }
       }
-      if (in_plane) s.coplanar.push_back(c);
+      const auto tt = static_cast<std::uint32_t>(t), kk = static_cast<std::uint32_t>(k);
+      if (!same) s.open_edges.push_back({tt, tt, kk});
+      if (other) s.creases.push_back({tt, tt, kk});
     }
-    const auto cheap = [&](const Patch& a) {
-      double reach = -std::numeric_limits<double>::infinity();
-      for (const std::uint32_t c : s.coplanar) {
-        const Vec3* w = candidates[c].vertices;
-        reach = std::max({reach, a.normal.dot(w[0]), a.normal.dot(w[1]), a.normal.dot(w[2])});
-      }
-      return reach - a.shape_low < p.face_push;
-    };
-    if (cheap(p)) {
+  }
+  for (auto& e : s.open_edges) e.piece = find(e.piece);
+  for (auto& e : s.creases) e.piece = find(e.piece);
+  std::sort(s.open_edges.begin(), s.open_edges.end());
+  std::sort(s.creases.begin(), s.creases.end());
+  s.piece_axes.clear();
+  for (const SortItem& item : s.delayed) {
+    const Patch& p = s.patches[item.patch];
+    if (p.face_count > 0 && p.face_push < kInf) s.piece_axes.push_back(item.patch);
+  }
+  std::sort(s.piece_axes.begin(), s.piece_axes.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return find(a) != find(b) ? find(a) < find(b) : a < b; });
+  const auto range = [](const auto& v, std::uint32_t piece, auto key) {
+    const auto lo = std::partition_point(v.begin(), v.end(), [&](const auto& x) { return key(x) < piece; });
+    const auto hi = std::partition_point(lo, v.end(), [&](const auto& x) { return key(x) <= piece; });
+    return std::make_pair(lo, hi);
+  };
+  // The push that clears the piece along an axis, +infinity when the shape
+  // does not reach beyond the piece that way.
+  const auto push = [&](std::uint32_t piece, const Vec3& axis) {
+    double reach = -kInf;
+    const auto edges = range(s.open_edges, piece, [](const FilterScratch::PieceEdge& e) { return e.piece; });
+    for (auto e = edges.first; e != edges.second; ++e) {
+      const Vec3* w = candidates[s.patch_candidate[e->triangle]].vertices;
+      reach = std::max({reach, axis.dot(w[e->edge]), axis.dot(w[(e->edge + 1) % 3])});
+    }
+    double low, high;
+    narrowphase.extentAlong(axis, low, high);
+    return high - reach > 1e-9 * (high - low) ? reach - low : kInf;
+  };
+  for (const std::uint32_t patch : s.piece_axes) {
+    Patch& p = s.patches[patch];
+    const std::uint32_t piece = find(patch);
+    if (push(piece, p.normal) < p.face_push) {
       p.plane_push = PlanePush::kOwn;
       continue;
     }
-    p.plane_push = PlanePush::kFace;
-    for (const SortItem& other : s.delayed) {
-      const Patch& a = s.patches[other.patch];
-      if (other.patch == item.patch || a.face_count == 0 || !(a.face_push < std::numeric_limits<double>::infinity()) ||
-          a.face_normal.dot(p.face_normal) < kStandInCosine)
-        continue;
-      if (cheap(a)) {
-        p.plane_push = PlanePush::kNone;
-        break;
+    double& least = s.piece_least_push[piece];
+    if (std::isnan(least)) {
+      least = kInf;
+      const auto axes = range(s.piece_axes, piece, [&](std::uint32_t a) { return find(a); });
+      for (auto a = axes.first; a != axes.second; ++a) least = std::min(least, push(piece, s.patches[*a].normal));
+      const auto creases = range(s.creases, piece, [](const FilterScratch::PieceEdge& e) { return e.piece; });
+      for (auto e = creases.first; e != creases.second; ++e) {
+        // Straight out of the piece across the crease, along its plane (no
+        // patch need have chosen that axis: a box at a wall's foot, yawed by
+        // 41 degrees, its corner in the ledge's edge; each ledge triangle's
+        // least axis was a box face's, and the ledge's face parts popped the
+        // box up onto it).
+        const Vec3* w = candidates[s.patch_candidate[e->triangle]].vertices;
+        const Vec3 out =
+            normalizedOr((w[(e->edge + 1) % 3] - w[e->edge]).cross(s.entered_normals[e->triangle]), Vec3::Zero());
+        least = std::min(least, push(piece, out));
       }
     }
+    p.plane_push = least < p.face_push ? PlanePush::kNone : PlanePush::kFace;
   }
 }
 
@@ -493,7 +582,9 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // stand-in: whether a patch ranked before it has become a face must not
   // depend on the midphase's order.
   if (stand_in_parts && stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
-  if (stand_in_parts && stand_ins) markPlanePushes(candidates, s);
+  if constexpr (stand_in_parts) {
+    if (stand_ins) markPlanePushes(candidates, s, identity, narrowphase);
+  }
   bool positions_built = false;
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];

@@ -56,7 +56,7 @@ enum class Verdict : std::uint8_t {
   kFaceContact,            // closest point inside the face: kept, triangle voided
   kEdgeContact,            // delayed edge contact, not voided: kept
   kVertexContact,          // delayed vertex contact, not voided: kept
-  kVoided,                 // delayed contact on a voided edge/vertex: dropped
+  kVoided,                 // delayed contact on a voided edge/vertex (a box's: or pushing along its plane): dropped
   kBackFacing,             // shape behind the triangle's plane (§4a): culled
   kBeyondContactDistance,  // farther than radius + contact distance (fig. 1)
   kDegenerate,             // no usable normal

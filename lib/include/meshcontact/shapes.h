@@ -83,18 +83,24 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
 /// the ledge). Separated (within the contact distance): the exact closest
 /// points of box and triangle, feature = the triangle's feature holding the
 /// closest point, normal from it toward the box (the triangle normal for a
-/// face), depth = -distance. Penetrating: the triangle under the box's
-/// deepest point below its plane owns a face contact (normal = triangle
-/// normal, depth = that point's depth); others get the separating axis of
-/// least penetration (separating axes: triangle normal, 3 box faces, 9
-/// edge-edge crosses; face axes preferred, never a normal into the
-/// triangle's back). Such a contact on an edge or vertex that the filter
-/// voids is replaced by the triangle's face contact when a face contact in
-/// the same plane (within 3 degrees) holds that edge or vertex: a box sunk
-/// into a tessellated floor keeps the part of its face over each
-/// triangle. Up to 4 points per triangle by clipping (a box lying flat on a
-/// tessellated floor ends with 4 after the manifold reduction).
-/// See box.cpp for the details.
+/// face), depth = -distance; where that is an edge or vertex straight
+/// below the box's nearly level face, the part of that face over the
+/// triangle instead (a box hovering within the contact distance keeps its
+/// corners). Penetrating: the triangle under the box's deepest point below
+/// its plane owns a face contact (normal = triangle normal, depth = that
+/// point's depth) unless a sideways axis needs less than half that push;
+/// others get the separating axis of least penetration (separating axes:
+/// triangle normal, 3 box faces, 9 edge-edge crosses; face axes preferred;
+/// no normal more than 15 degrees into the triangle's back). A sideways
+/// contact is replaced by the triangle's face contact where the surface
+/// goes on (no sideways axis clears the query's triangles of that plane
+/// connected to it cheaply, or the filter voids its edge and a face contact
+/// in the same plane, within 3 degrees, holds it), and is kept where the
+/// surface ends: a box sunk into a tessellated floor keeps the part of its
+/// face over each triangle, and a box tilted beside a plate's edge is
+/// pushed off sideways, not up onto the plate. Up to 4 points per triangle
+/// by clipping (a box lying flat on a tessellated floor ends with 4 after
+/// the manifold reduction). See box.cpp for the details.
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
                             const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
 Status collideBox(const TriangleMesh& mesh, const Box& box, const Pose& pose, const QuerySettings& settings,
