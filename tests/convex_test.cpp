@@ -1162,6 +1162,47 @@ TEST(ConvexMargin, CylinderHasRoundedRimsAndExactFaces) {
   }
 }
 
+// A cylinder's cap rim sunk by half its margin (the core apart: depth =
+// margin - distance), its lowest point 2e-5 from an internal edge. The
+// neighbour across the edge meets the rim at the edge, higher by the rim's
+// sag, (2e-5)^2 / (2 * 0.285) = 7e-10, which the face test (distance within
+// 1e-9 of the size of the plane's) counts as the plane's distance: its
+// contact is the lowest point, at its exact depth. It had GJK's point at the
+// edge, 7e-10 shallower, which the manifold reduction's tie band (1e-9 of
+// the size) could keep for the lowest one (ConvexPlanarOracle's
+// CylinderResting, 1.04e-9).
+TEST(ConvexMargin, RimOverAnInternalEdgeGetsTheExactDepth) {
+  const CylinderShape shape(Cylinder{0.3, 0.4});
+  const double m = shape.margin();
+  SceneMesh floor;
+  floor.addVertex(Vec3(-1, 0, 0));
+  floor.addVertex(Vec3(1, 0, 0));
+  floor.addVertex(Vec3(0, -1, 0));
+  floor.addVertex(Vec3(0, 1, 0));
+  floor.addTriangle(0, 2, 1);  // y < 0
+  floor.addTriangle(0, 1, 3);  // y > 0
+  const TriangleMesh mesh = testing::buildMesh(floor);
+  QuerySettings settings;
+  settings.reduce_manifold = false;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const double side : {-1.0, 1.0}) {
+    // The axis along x, dipping by 0.1 rad: the lower cap's plane holds y,
+    // and its rim is lowest at one point, curving up along y.
+    Pose pose;
+    pose.rotation = Eigen::AngleAxisd(M_PI / 2 + 0.1, Vec3::UnitY()).toRotationMatrix();
+    const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
+    const double depth = 0.5 * m;
+    pose.translation = Vec3(0.1, side * 2e-5, -depth) - low;
+    ASSERT_TRUE(collideConvex(mesh, shape, pose, settings, scratch, contacts).isOk());
+    ASSERT_EQ(contacts.size(), 2u) << "side " << side;  // one per triangle
+    for (const Contact& c : contacts) {
+      EXPECT_LE(degreesBetween(c.normal, Vec3::UnitZ()), 1e-6) << "side " << side;
+      EXPECT_NEAR(c.depth, depth, 1e-12) << "side " << side << ", triangle " << c.triangle;
+    }
+  }
+}
+
 // Point-to-core distances in closed form: the core of a box hull is the box
 // shrunk by m, the cylinder's core the cylinder shrunk by m.
 double pointToCylinder(const Vec3& local, double r, double h) {

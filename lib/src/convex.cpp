@@ -954,7 +954,8 @@ struct ConvexNarrowphase {
     }
     // Face when the distance is the plane's (only reached along n), or when
     // the triangle's support feature along u is its face.
-    bool face = gap > 0.0 && d <= gap + 1e-9 * size;
+    const bool plane_distance = gap > 0.0 && d <= gap + 1e-9 * size;
+    bool face = plane_distance;
     if (!face) {
       // Tolerance 1e-4 (of the triangle's size, i.e. ~1e-4 rad): above
       // GJK's ~1e-6 rad on curved cores, so an edge is not taken for one of
@@ -964,7 +965,19 @@ struct ConvexNarrowphase {
     }
     if (scale == 1.0) {
       if (d - margin > contact_distance) return PatchOutcome::kBeyondContactDistance;
-      if (face) return facePatch(tri, n, Vec3(g.point_a - margin * n), true, p);
+      // The witness when the distance is the plane's: the closest vector is
+      // then n (to that tolerance) and K's point nearest the triangle its
+      // lowest point along -n, `low`, whose depth margin - gap is exact (as
+      // in the exact face test above). GJK's point_a lies on K up to about
+      // sqrt(2 R * 1e-9 size) from `low` (R: K's radius of curvature there):
+      // when `low` is just beyond the triangle's edge (over the neighbour,
+      // which reports it exactly), point_a is over the edge, on the curve
+      // through `low`, higher by its sag. A cylinder's cap rim (R = 0.285)
+      // 2.4e-5 along: 1.04e-9 shallower, within the manifold reduction's tie
+      // band (1e-9 of the size, as here), which then kept that point for the
+      // lowest one. Otherwise (a face by its support feature) GJK's point is
+      // the one over the triangle: `low` may be anywhere under K.
+      if (face) return facePatch(tri, n, Vec3((plane_distance ? low : g.point_a) - margin * n), true, p);
       p.normal = u;
       p.count = 1;
       // Over a vertex, the contact's place is the core's point over it.
