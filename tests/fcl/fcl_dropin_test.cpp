@@ -565,6 +565,52 @@ TEST(DropIn, PassedThroughContactIsOnTheSharpSurface) {
   EXPECT_EQ(report.through_contacts, 1u);
 }
 
+// A cylinder tilted onto a tessellated floor, its sharp rim 1.5e-4 into a
+// triangle's interior (PlanarOracle.TessellatedFloor/cylinder's pose 3781,
+// in the mesh's frame): the core's rounded rim stays 2.9e-3 above the floor,
+// so the fallback owes the contact. Its overlap test asked FCL's GJK alone,
+// which stops at support points within sqrt(tolerance) of each other and
+// answered "apart" for this pair at every tolerance down to 1e-8: no
+// contact, where fcl::collide has one. The chord of the cylinder between
+// its extreme points along the floor's normal crosses the triangle: overlap.
+TEST(DropIn, ShallowCylinderRimUnderTheCoresRoundingGetsTheSharpContact) {
+  const ::fcl::CollisionObjectd mesh(fclModel<::fcl::OBBRSSd>(scenes::flatFloor(8, 8, 0.5, 21)));
+  const ShapeCase shape = allShapes()[3];
+  ASSERT_EQ(shape.kind, Kind::kCylinder);
+  Pose pose;
+  pose.rotation << 0.14893407358694555, -0.38229199628160093, 0.91196023559354111, -0.72411952187797235,
+      -0.67021023964373772, -0.16269343168026543, 0.67340148482165929, -0.63613761424373649, -0.37664223871503344;
+  pose.translation = Vec3(1.4450513037251986, 1.4711294086575886, 0.30676689329504858);
+  const double depth = shape.extentAlong(pose.rotation.transpose() * -Vec3::UnitZ()) - pose.translation.z();
+  ASSERT_GT(depth, 1e-4);
+  ASSERT_LT(depth, 2e-4);
+  const ::fcl::CollisionObjectd cylinder(shape.make(), toTransform(pose));
+  ::fcl::CollisionResultd fcl_result;
+  ::fcl::collide(&mesh, &cylinder, ::fcl::CollisionRequestd(1, false), fcl_result);
+  ASSERT_TRUE(fcl_result.isCollision()) << "FCL sees the overlap";
+  fcl::Scratch scratch;
+  for (const bool mesh_first : {true, false}) {
+    ::fcl::CollisionResultd result;
+    fcl::Report report;
+    ASSERT_TRUE((mesh_first ? fcl::collide(&mesh, &cylinder, contactsRequest(), result, fcl::Options(), scratch, &report)
+                            : fcl::collide(&cylinder, &mesh, contactsRequest(), result, fcl::Options(), scratch, &report))
+                    .isOk());
+    ASSERT_EQ(result.numContacts(), 1u) << "mesh first " << mesh_first;
+    EXPECT_EQ(report.through_contacts, 1u);
+    const ::fcl::Contactd& c = result.getContact(0);
+    EXPECT_LE((c.normal - (mesh_first ? Vec3::UnitZ() : Vec3(-Vec3::UnitZ()))).norm(), 1e-12) << str(c);
+    EXPECT_NEAR(c.penetration_depth, depth, 1e-12) << str(c);
+    EXPECT_NEAR(c.pos.z(), -depth, 1e-12) << str(c);
+    ::fcl::CollisionResultd boolean;
+    ASSERT_TRUE((mesh_first ? fcl::collide(&mesh, &cylinder, ::fcl::CollisionRequestd(1, false), boolean,
+                                           fcl::Options(), scratch)
+                            : fcl::collide(&cylinder, &mesh, ::fcl::CollisionRequestd(1, false), boolean,
+                                           fcl::Options(), scratch))
+                    .isOk());
+    EXPECT_TRUE(boolean.isCollision()) << "mesh first " << mesh_first;
+  }
+}
+
 // Boxes set down exactly on a floor (centre at z = half height, a random
 // yaw: touching to round-off) get the core's contacts through the drop-in.
 // The walk's bounds lacked the round-off the core's box query reaches by:

@@ -151,10 +151,12 @@ Vec3 supportPoint(const ShapeDesc& shape, const Pose& pose, const Vec3& directio
 
 /// Whether FCL's (sharp) shape and triangle (a, b, c) overlap, two-sided,
 /// in the query frame: what fcl::collide decides per triangle, away from
-/// touching. Closed forms for the capsule and box; FCL's GJK with
-/// `tolerance` (the request's gjk_tolerance), capped at FCL's iteration
-/// count, for the cylinder, cone, ellipsoid and convex (see shapes.cpp for
-/// why not libccd's MPR). Not for a sphere: passesThrough's ball test
+/// touching. Closed forms for the capsule and box; for the cylinder, cone,
+/// ellipsoid and convex, an exact chord test first (the chord between the
+/// shape's extreme points along the triangle's normal crossing the
+/// triangle), then FCL's GJK with `tolerance` (the request's
+/// gjk_tolerance), capped at FCL's iteration count (see shapes.cpp for why
+/// not libccd's MPR, and why not GJK alone). Not for a sphere: passesThrough's ball test
 /// (`closest` within the radius) is its whole test. `closest` is the
 /// triangle's point closest to the shape's centre.
 bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3& a, const Vec3& b, const Vec3& c,

@@ -401,6 +401,34 @@ bool shapeOverlapsTriangle(const ShapeDesc& shape, const Pose& pose, const Vec3&
     }
     default: break;
   }
+  // A chord of the shape that crosses the triangle proves the overlap,
+  // exactly: the chord between the shape's farthest points along the
+  // triangle's normal and against it (both points of the convex shape, so
+  // the whole chord is in it), when they lie strictly on either side of
+  // the plane and the chord meets the plane inside the triangle (closed).
+  // This is the common case, a shape sunk into a surface, and GJK cannot be
+  // trusted with it when shallow: FCL's GJK stops, answering "apart", as
+  // soon as a new support point is within sqrt(tolerance) of a recent one
+  // ("check B": 5e-4 for the cylinder below, at the default gjk_tolerance
+  // scaled as below), and a curved shape's support points near the answer
+  // are that close. A cylinder (r 0.25, lz 0.4) tilted onto a flat
+  // floor, its rim 1.5e-4 into a triangle's interior, got "apart" from GJK
+  // at any tolerance down to 1e-8, so no contact at all: the core's rounded
+  // rim was 2.9e-3 above the floor (tests/fcl/fcl_oracle_test.cpp).
+  {
+    const Vec3 n = normalizedOr((b - a).cross(c - a), Vec3::Zero());
+    if (!n.isZero()) {
+      const Vec3 top = supportPoint(shape, pose, n);
+      const Vec3 bottom = supportPoint(shape, pose, -n);
+      const double h_top = n.dot(top - a), h_bottom = n.dot(bottom - a);
+      if (h_top > 0.0 && h_bottom < 0.0) {
+        const Vec3 x = bottom + (h_bottom / (h_bottom - h_top)) * (top - bottom);
+        if (n.dot((b - a).cross(x - a)) >= 0.0 && n.dot((c - b).cross(x - b)) >= 0.0 &&
+            n.dot((a - c).cross(x - c)) >= 0.0)
+          return true;
+      }
+    }
+  }
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
   tf.linear() = pose.rotation;
   tf.translation() = pose.translation;

@@ -225,8 +225,9 @@ struct Report {
   /// none (in collision checking: none before the check reached a triangle
   /// whose plane the shape's origin is behind, see collide() below), but
   /// a two-sided overlap test (closed forms for the sphere, capsule and
-  /// box; FCL's GJK, capped at 128 iterations, with the request's
-  /// gjk_tolerance, for the others; not libccd's MPR, which has no cap and
+  /// box; for the others, a chord of the shape crossing the triangle,
+  /// else FCL's GJK, capped at 128 iterations, with the request's
+  /// gjk_tolerance; not libccd's MPR, which has no cap and
   /// looped forever on some pairs) finds FCL's sharp shape overlapping a
   /// candidate triangle. This happens when the shape has passed through a
   /// one-sided surface (meshcontact's contacts are one-sided, reference §4a:
