@@ -106,8 +106,7 @@ World& world() {
     auto geometry = fclbench::makeShape(id);
     fcl::Transform3d tf = fcl::Transform3d::Identity();
     tf.linear() = rng.rotation();
-    tf.translation() = fcl::Vector3d(rng.uniform(1.0, extent - 1.0), rng.uniform(1.0, extent - 1.0),
-                                     rng.uniform(-0.5 * h, 1.5 * h));
+    tf.translation() = rng.uniformVector(mc::Vec3(1.0, 1.0, -0.5 * h), mc::Vec3(extent - 1.0, extent - 1.0, 1.5 * h));
     w->shapes.push_back(std::make_unique<fcl::CollisionObjectd>(geometry, tf));
   }
   for (auto& t : w->tiles) w->environment.registerObject(t.get());

@@ -52,11 +52,12 @@ std::vector<mc::Pose> restingPoses(double size, Lowest lowest) {
   const double extent = kCells * kCell;
   for (int i = 0; i < kPoses; ++i) {
     const mc::Mat3 yaw = Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), mc::Vec3::UnitZ()).toRotationMatrix();
-    const mc::Mat3 tilt = Eigen::AngleAxisd(rng.uniform(-0.05, 0.05), rng.unitVector()).toRotationMatrix();
+    const double tilt_angle = rng.uniform(-0.05, 0.05);
+    const mc::Mat3 tilt = Eigen::AngleAxisd(tilt_angle, rng.unitVector()).toRotationMatrix();
     mc::Pose p;
     p.rotation = tilt * yaw;
     const double depth = rng.uniform(0.0, 0.02) * size;
-    p.translation = mc::Vec3(rng.uniform(2, extent - 2), rng.uniform(2, extent - 2), -lowest(p.rotation) - depth);
+    p.translation = mc::Vec3{rng.uniform(2, extent - 2), rng.uniform(2, extent - 2), -lowest(p.rotation) - depth};
     poses.push_back(p);
   }
   return poses;

@@ -230,7 +230,7 @@ TEST(BoxConsistency, TessellatedBoxAgreesWithFcl) {
   auto big = std::make_shared<fcl::Boxd>(2 * half);
   fcl::CollisionObjectd o1(big, fcl::Transform3d::Identity());
   for (int trial = 0; trial < 400; ++trial) {
-    const Box box{Vec3(rng.uniform(0.05, 0.2), rng.uniform(0.05, 0.2), rng.uniform(0.05, 0.2))};
+    const Box box{rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.2))};
     const double size = box.half_extents.norm();
     const int axis = static_cast<int>(rng.next() % 3);
     const double sign = (rng.next() & 1) ? 1.0 : -1.0;
@@ -376,7 +376,7 @@ TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
     std::vector<Contact> contacts;
     int touching = 0;
     for (int i = 0; i < 400; ++i) {
-      const Vec3 e(rng.uniform(0.1, 0.4), rng.uniform(0.1, 0.4), rng.uniform(0.2, 1.0));
+      const Vec3 e = rng.uniformVector(Vec3(0.1, 0.1, 0.2), Vec3(0.4, 0.4, 1.0));
       const double tilt = rng.uniform(0, 0.01), yaw = rng.uniform(-0.04, 0.04);
       const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(i), std::sin(i), 0)).toRotationMatrix() *
                      Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
@@ -622,9 +622,9 @@ TEST(BoxFloor, SetDownExactlyOnAFloorTouches) {
       QuerySettings settings;
       settings.contact_distance = cd;
       for (int i = 0; i < 3000; ++i) {
-        const Vec3 e(rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5));
+        const Vec3 e = rng.uniformVector(Vec3::Constant(0.1), Vec3::Constant(0.5));
         const double yaw = rng.uniform(0, 2 * M_PI);
-        const Vec3 centre(rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z());
+        const Vec3 centre{rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z()};
         const Pose pose = poseFrom(Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix(), centre);
         char yaw_text[32];
         std::snprintf(yaw_text, sizeof yaw_text, "%.17g", yaw);
@@ -660,7 +660,7 @@ TEST(BoxFloor, SetDownBesideAnEdgeStaysOnItsSide) {
   int touching = 0;
   for (int i = 0; i < 2000; ++i) {
     const Mat3 r = rng.rotation();
-    const Vec3 offset(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    const Vec3 offset = rng.uniformVector(Vec3::Constant(-3), Vec3::Constant(3));
     scenes::SceneMesh m;
     const std::uint32_t a = m.addVertex(r * Vec3(0, 0, 0) + offset), b = m.addVertex(r * Vec3(2, 0, 0) + offset);
     const std::uint32_t c = m.addVertex(r * Vec3(0, 2, 0) + offset);
@@ -705,7 +705,7 @@ TEST(BoxFloor, HoveringWithinTheContactDistanceKeepsItsCorners) {
   QuerySettings settings;
   settings.contact_distance = 0.01;
   for (int i = 0; i < 1000; ++i) {
-    const Vec3 e(rng.uniform(0.2, 1), rng.uniform(0.2, 1), rng.uniform(0.05, 0.5));
+    const Vec3 e = rng.uniformVector(Vec3(0.2, 0.2, 0.05), Vec3(1, 1, 0.5));
     const double yaw = rng.uniform(0, 2 * M_PI), about = rng.uniform(0, 2 * M_PI);
     const double tilt = std::pow(10.0, rng.uniform(-6, -3));
     const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(about), std::sin(about), 0)).toRotationMatrix() *
@@ -734,15 +734,15 @@ TEST(BoxFloor, SunkBoxKeepsItsCorners) {
   for (const double sink : {0.01, 0.05}) {
     for (int i = 0; i < 1000; ++i) {
       const Mat3 r = rng.rotation();
-      const Vec3 offset(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+      const Vec3 offset = rng.uniformVector(Vec3::Constant(-3), Vec3::Constant(3));
       const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(8, r, offset));
-      const Vec3 e(rng.uniform(0.1, 1), rng.uniform(0.1, 1), rng.uniform(0.05, 0.5));
+      const Vec3 e = rng.uniformVector(Vec3(0.1, 0.1, 0.05), Vec3(1, 1, 0.5));
       const double yaw = rng.uniform(0, 2 * M_PI), tilt_about = rng.uniform(0, 2 * M_PI);
       const double tilt = rng.uniform(0, 0.9) * sink / (2 * (e.x() + e.y()));  // bottom corners differ by less than sink
       const Mat3 local = Eigen::AngleAxisd(tilt, Vec3(std::cos(tilt_about), std::sin(tilt_about), 0)).toRotationMatrix() *
                          Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
       const double lowest = e.dot((local.transpose() * Vec3::UnitZ()).cwiseAbs());  // below the centre
-      const Vec3 centre(rng.uniform(2, 6), rng.uniform(2, 6), lowest - sink);
+      const Vec3 centre{rng.uniform(2, 6), rng.uniform(2, 6), lowest - sink};
       const Pose pose = poseFrom(r * local, r * centre + offset);
       const std::string config = "sink " + std::to_string(sink) + ", placement " + std::to_string(i) + ": Box{" +
                                  str(e) + "} centre " + str(centre) + " in the grid's frame";
@@ -822,10 +822,10 @@ TEST(BoxFloor, CornersOverMeshVerticesAreKept) {
     // the clipping planes are exactly 0, not noise.
     const bool exact = i < 20;
     const Mat3 r = exact ? Mat3::Identity() : rng.rotation();
-    const Vec3 offset = exact ? Vec3::Zero() : Vec3(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    const Vec3 offset = exact ? Vec3::Zero() : rng.uniformVector(Vec3::Constant(-3), Vec3::Constant(3));
     const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(4, r, offset));
     const Vec3 e(0.5, 0.5, 0.2);
-    const Vec3 cell(1.5 + (rng.next() % 2), 1.5 + (rng.next() % 2), e.z() - 0.05);
+    const Vec3 cell{1.5 + (rng.next() % 2), 1.5 + (rng.next() % 2), e.z() - 0.05};
     const Pose pose = poseFrom(r, r * cell + offset);
     const std::string config = "placement " + std::to_string(i) + ", cell " + str(cell) + ", offset " + str(offset);
     const auto corners = [&](bool assert_each) {

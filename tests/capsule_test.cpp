@@ -378,7 +378,8 @@ TEST(CapsuleConsistency, TessellatedBoxEdgesAgreeWithExactDistance) {
     const double sy = (rng.next() & 1) ? 1.0 : -1.0, sz = (rng.next() & 1) ? 1.0 : -1.0;
     const double phi = rng.uniform(10, 80) * kDeg;
     const Vec3 out(0, sy * std::cos(phi), sz * std::sin(phi));
-    const Vec3 centre = Vec3(rng.uniform(-0.5, 0.5), sy * half.y(), sz * half.z()) + cap.radius * rng.uniform(0.7, 0.99) * out;
+    const double x = rng.uniform(-0.5, 0.5);
+    const Vec3 centre = Vec3(x, sy * half.y(), sz * half.z()) + cap.radius * rng.uniform(0.7, 0.99) * out;
     const Vec3 axis = Vec3(1, 0, 0) + rng.uniform(-0.2, 0.2) * out.cross(Vec3::UnitX());
     const Pose pose = poseFrom(alongZ(axis), centre);
     const RefBoxDistance ref = refSegmentBox(pose.apply(Vec3(0, 0, -cap.half_length)),
@@ -580,7 +581,7 @@ TEST(CapsuleFloor, TiltedKeepsBothEnds) {
       const double rise = 2 * cap.half_length * std::sin(tilt);
       const double yaw = rng.uniform(0, 2 * M_PI);
       const double sign = (rng.next() & 1) ? 1.0 : -1.0;
-      const Vec3 centre(rng.uniform(1, 12), rng.uniform(1, 3), cap.radius - sink - 0.5 * rise);
+      const Vec3 centre{rng.uniform(1, 12), rng.uniform(1, 3), cap.radius - sink - 0.5 * rise};
       if (rise + sink > 0.9 * cap.radius) continue;  // the core stays above the floor
       const Vec3 axis(std::cos(yaw) * std::cos(tilt), std::sin(yaw) * std::cos(tilt), sign * std::sin(tilt));
       const Pose pose = poseFrom(alongZ(axis), centre);
@@ -620,7 +621,7 @@ TEST(CapsuleFloor, AlongADiagonalKeepsBothEnds) {
   constexpr int kCells = 6;
   for (int i = 0; i < 2000; ++i) {
     const Mat3 r = rng.rotation();
-    const Vec3 offset(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+    const Vec3 offset = rng.uniformVector(Vec3::Constant(-3), Vec3::Constant(3));
     const TriangleMesh mesh = testing::buildMesh(testing::unitGrid(kCells, r, offset));
     const Capsule cap{0.1, 0.5};
     const double along = rng.uniform(1.5, 4.5);  // the centre, on the grid's main diagonal
@@ -696,7 +697,7 @@ TEST(CapsuleBadInput, SphereLimitMatchesSphere) {
   QueryScratch scratch;
   scenes::Rng rng(5);
   for (int i = 0; i < 200; ++i) {
-    const Vec3 c(rng.uniform(0.2, 1.8), rng.uniform(0.2, 1.8), rng.uniform(0.0, 0.25));
+    const Vec3 c = rng.uniformVector(Vec3(0.2, 0.2, 0.0), Vec3(1.8, 1.8, 0.25));
     std::vector<Contact> a, b;
     QuerySettings settings;
     settings.contact_distance = 0.05;

@@ -38,7 +38,7 @@ std::vector<Pose> placements(const SupportShape& shape, double size, int count, 
     Pose pose;
     pose.rotation = rng.rotation();
     const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
-    pose.translation = Vec3(rng.uniform(1.0, 4.0), rng.uniform(1.0, 4.0), rng.uniform(-deepest, 0.01 * size) - low.z());
+    pose.translation = Vec3{rng.uniform(1.0, 4.0), rng.uniform(1.0, 4.0), rng.uniform(-deepest, 0.01 * size) - low.z()};
     poses.push_back(pose);
   }
   return poses;

@@ -90,7 +90,7 @@ OracleStats planarOracle(const std::vector<MeshInstance>& instances, const Suppo
     pose.rotation = rng.rotation();
     const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -Vec3::UnitZ());
     const double bottom = rng.uniform(lowest_min, lowest_max);
-    const Vec3 spot = frame.point(Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), 0.0));  // on the plane
+    const Vec3 spot = frame.point(Vec3{rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), 0.0});  // on the plane
     pose.translation = Vec3(spot.x(), spot.y(), spot.z() + (bottom - low.z()));
     ++st.placements;
     Band& band = bottom >= 0.0 ? st.separated : (-bottom < shape.margin() ? st.shallow : st.deep);

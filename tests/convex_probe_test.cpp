@@ -49,8 +49,9 @@ TEST(ConvexProbe, AnswersAsTheOneCandidateQuery) {
       for (int i = 0; i < poses; ++i) {
         Pose pose;
         pose.rotation = rng.rotation();
-        pose.translation = Vec3(rng.uniform(0.7, 4.3), rng.uniform(0.7, 4.3),
-                                (k == 0 ? 0.0 : rng.uniform(-0.5, 0.5)) + 0.3 * rng.uniform(-0.9, 1.5));
+        const double x = rng.uniform(0.7, 4.3), y = rng.uniform(0.7, 4.3);
+        const double level = k == 0 ? 0.0 : rng.uniform(-0.5, 0.5);
+        pose.translation = Vec3(x, y, level + 0.3 * rng.uniform(-0.9, 1.5));
         QuerySettings settings;
         if (i % 4 == 0) settings.contact_distance = 0.02;
         const std::string config = std::string(k == 0 ? "flat " : "sine ") + names[s] + " pose " + std::to_string(i) +

@@ -68,7 +68,7 @@ SceneMesh single(const Vec3& a, const Vec3& b, const Vec3& c) {
 Pose randomPose(scenes::Rng& rng, double spread) {
   Pose p;
   p.rotation = rng.rotation();
-  p.translation = Vec3(rng.uniform(-spread, spread), rng.uniform(-spread, spread), rng.uniform(-spread, spread));
+  p.translation = rng.uniformVector(Vec3::Constant(-spread), Vec3::Constant(spread));
   return p;
 }
 
@@ -448,7 +448,7 @@ void consistencyFor(const SupportShape& shape, const SupportShape& sharp, double
   // Separated near edges and corners (contact distance 0.1 of the size):
   // our GJK against the solid box's support.
   for (int trial = 0; trial < 100; ++trial) {
-    Vec3 dir(rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.0), (trial % 2) ? rng.uniform(0.3, 1.0) : 0.0);
+    Vec3 dir{rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.0), (trial % 2) ? rng.uniform(0.3, 1.0) : 0.0};
     for (int k = 0; k < 3; ++k)
       if (rng.next() & 1) dir[k] = -dir[k];
     dir.normalize();
@@ -612,8 +612,8 @@ TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
         // Over the scene, from 0.1 above its highest point down to 0.3 below
         // its lowest: on the floors most placements are deep, many of them
         // very deep (on the cliff fewer: some float over the lower floor).
-        pose.translation = Vec3(rng.uniform(lo.x() + 0.5, hi.x() - 0.5), rng.uniform(lo.y() + 0.5, hi.y() - 0.5),
-                                rng.uniform(lo.z() - 0.3, hi.z() + 0.1));
+        pose.translation = Vec3{rng.uniform(lo.x() + 0.5, hi.x() - 0.5), rng.uniform(lo.y() + 0.5, hi.y() - 0.5),
+                                rng.uniform(lo.z() - 0.3, hi.z() + 0.1)};
         QuerySettings settings;
         settings.contact_distance = i % 3 == 0 ? 0.02 : 0.0;
         Vec3 box_lo, box_hi;
@@ -994,7 +994,7 @@ TEST(ConvexBadInput, ASupportFaceWithNoPointIsTheSupportPoint) {
   int touching = 0;
   for (int i = 0; i < 200; ++i) {
     Pose pose = randomPose(rng, 1.0);
-    pose.translation = Vec3(rng.uniform(1, 7), rng.uniform(1, 7), rng.uniform(0.0, 0.6));
+    pose.translation = rng.uniformVector(Vec3(1, 1, 0.0), Vec3(7, 7, 0.6));
     ASSERT_TRUE(collideConvex(floor, Ball(), pose, QuerySettings(), scratch, a).isOk());
     ASSERT_TRUE(collideConvex(floor, NoFace(), pose, QuerySettings(), scratch, b).isOk());
     ASSERT_EQ(a.size(), b.size()) << "pose " << i;
@@ -1101,7 +1101,7 @@ TEST(ConvexMargin, HullsOfManyPointsStayInside) {
         case 0: points.push_back(u); break;
         case 1: points.push_back(Vec3(u.x(), u.y(), 1e-3 * u.z())); break;
         case 2: points.push_back((4.0 * u).array().round().matrix() / 4.0 + 1e-7 * rng.unitVector()); break;
-        case 3: points.push_back(Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1))); break;
+        case 3: points.push_back(rng.uniformVector(Vec3::Constant(-1), Vec3::Constant(1))); break;
         case 4: points.push_back(1e4 * u + Vec3(1e5, 0, 0)); break;
         default: points.push_back(Vec3(10 * u.x(), 0.1 * u.y(), 0.1 * u.z())); break;
       }
@@ -1236,9 +1236,13 @@ TEST(ConvexMargin, ContactsLieOnTheRoundedSurface) {
     // the contact distance above and the margin below the surface (the core
     // stays clear: separated-core contacts only).
     const Vec3 up = (&mesh == &floor) ? Vec3::UnitZ() : Vec3(3, 0, 0.5).cross(Vec3(0, 3, 0.7)).normalized();
-    const Vec3 spot = (&mesh == &floor) ? Vec3(rng.uniform(0.8, 2.2), rng.uniform(0.8, 2.2), 0.0)
-                                        : Vec3(-1, -1, -0.3) + rng.uniform(0.2, 0.5) * Vec3(3, 0, 0.5) +
-                                              rng.uniform(0.2, 0.4) * Vec3(0, 3, 0.7);
+    Vec3 spot;
+    if (&mesh == &floor) {
+      spot = Vec3{rng.uniform(0.8, 2.2), rng.uniform(0.8, 2.2), 0.0};
+    } else {
+      const double s = rng.uniform(0.2, 0.5), t = rng.uniform(0.2, 0.4);
+      spot = Vec3(-1, -1, -0.3) + s * Vec3(3, 0, 0.5) + t * Vec3(0, 3, 0.7);
+    }
     const Vec3 low = pose.rotation * shape.shapeSupport(pose.rotation.transpose() * -up);
     const double height = rng.uniform(-0.9 * m, settings.contact_distance);
     pose.translation = spot + height * up - low;
@@ -1295,11 +1299,11 @@ TEST(ConvexProperties, MovingEverythingTogetherChangesNothing) {
     // From 3 margins deep (the deep path) to the contact distance above;
     // in the groove, lowered onto its slopes from above the bottom line.
     const double height = rng.uniform(-3.0 * shape.margin(), settings.contact_distance);
-    pose.translation = on_floor ? Vec3(rng.uniform(1.0, 2.0), rng.uniform(1.0, 2.0), height - low.z())
-                                : Vec3(rng.uniform(-0.05, 0.05), rng.uniform(-0.5, 0.5), 0.15 + height - low.z());
+    pose.translation = on_floor ? Vec3{rng.uniform(1.0, 2.0), rng.uniform(1.0, 2.0), height - low.z()}
+                                : Vec3{rng.uniform(-0.05, 0.05), rng.uniform(-0.5, 0.5), 0.15 + height - low.z()};
     Pose frame;
     frame.rotation = rng.rotation();
-    frame.translation = Vec3(rng.uniform(-1e5, 1e5), rng.uniform(-1e5, 1e5), rng.uniform(-1e5, 1e5));
+    frame.translation = rng.uniformVector(Vec3::Constant(-1e5), Vec3::Constant(1e5));
     const MeshInstance here{&mesh, Pose::identity()}, there{&mesh, frame};
     std::vector<Contact> a, b;
     ASSERT_TRUE(collideConvex(&here, 1, shape, pose, settings, scratch, a).isOk());
@@ -1343,7 +1347,7 @@ TEST(ConvexProjection, CylinderNearestCorePointIsTheProjection) {
   scenes::Rng rng(41);
   int inside = 0, outside = 0;
   for (int i = 0; i < 20000; ++i) {
-    const Vec3 x(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.9, 0.9));
+    const Vec3 x = rng.uniformVector(Vec3(-0.6, -0.6, -0.9), Vec3(0.6, 0.6, 0.9));
     Vec3 p;
     ASSERT_TRUE(shape.nearestCorePoint(x, p));
     // On the core, and at the closed form's distance from x.

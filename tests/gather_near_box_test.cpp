@@ -105,7 +105,7 @@ TEST(GatherNearBox, SubsetOfTheBoundsQueryKeepingEveryTouchedTriangle) {
         const Pose local = randomPose(rng, Vec3(0.5, 0.5, -0.6), Vec3(7.5, 7.5, 0.9));
         Pose box = instance_pose * local;
         if (i % 4 == 1) box.rotation = testing::rotationAtValidationTolerance(box.rotation);
-        const Vec3 h(rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6));
+        const Vec3 h = rng.uniformVector(Vec3::Constant(0.02), Vec3::Constant(0.6));
         const double cd = i % 3 == 2 ? 0.05 : 0.0;
         const BoxQuery q = boxQuery(box, h, cd);
         for (const KeyMode mode : {KeyMode::kVertexIndex, KeyMode::kVertexPosition}) {
@@ -136,7 +136,7 @@ TEST(GatherNearBox, QueryOrientedBoxIsTheBoxQueryMinusSeparatedLeaves) {
   std::size_t dropped = 0;
   for (int i = 0; i < testing::scaled(1000); ++i) {
     const Pose box = randomPose(rng, Vec3(0.5, 0.5, -0.6), Vec3(11.5, 11.5, 0.9));
-    const Vec3 h(rng.uniform(0.02, 0.8), rng.uniform(0.02, 0.8), rng.uniform(0.02, 0.8));
+    const Vec3 h = rng.uniformVector(Vec3::Constant(0.02), Vec3::Constant(0.8));
     const Vec3 extent = box.rotation.cwiseAbs() * h;
     all.clear(), near.clear(), huge.clear();
     terrain.queryBox(box.translation - extent, box.translation + extent, all, queue);
@@ -174,7 +174,7 @@ TEST(GatherNearBox, KeepsTheTrianglesUnderABoxRestingOnTheFloor) {
     Pose box = randomPose(rng, Vec3(1, 1, 0), Vec3(7, 7, 0));
     if (i % 4 == 0) box.rotation = Mat3::Identity();  // lying flat: a whole face on the floor
     if (i % 4 == 1) box.rotation = testing::rotationAtValidationTolerance(box.rotation);
-    const Vec3 h(rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6), rng.uniform(0.02, 0.6));
+    const Vec3 h = rng.uniformVector(Vec3::Constant(0.02), Vec3::Constant(0.6));
     const double cd = i % 5 < 2 ? 0.01 : 0.0;  // independent of the rotation and lift cycles
     // Exactly on the floor with no contact distance, the bounds themselves
     // may round to just above it and take in nothing (then there is nothing
@@ -238,7 +238,7 @@ TEST(GatherNearBox, CollideBoxGivesTheContactsOfTheUnprunedMidphase) {
         const Pose local = randomPose(rng, scene.lo, scene.hi);
         Pose box = instance_pose == &posed ? proper * local : local;
         if (i % 4 == 1) box.rotation = testing::rotationAtValidationTolerance(box.rotation);
-        const Box shape{Vec3(rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5))};
+        const Box shape{rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.5))};
         QuerySettings settings;
         settings.contact_distance = i % 3 == 2 ? 0.05 : 0.0;
         ASSERT_TRUE(collideBox(instances.data(), instances.size(), shape, box, settings, scratch, pruned).isOk());
@@ -268,7 +268,7 @@ TEST(GatherNearBox, CollideBoxGivesTheContactsOfTheUnprunedMidphase) {
       // Yawed only: a face normal is the floor's, the axis the leaf test uses.
       Pose local = randomPose(rng, Vec3(0.5, 0.5, 0), Vec3(3.5, 3.5, 0));
       local.rotation = Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3::UnitZ()).toRotationMatrix();
-      const Box shape{Vec3(rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5))};
+      const Box shape{rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.5))};
       QuerySettings settings;
       settings.contact_distance = 0.01;
       const Pose guess = far * local;

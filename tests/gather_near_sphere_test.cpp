@@ -24,11 +24,11 @@ TEST(GatherNearSphere, SubsetOfTheBoxQueryKeepingEveryTouchedTriangle) {
   for (const TriangleMesh* mesh : {&terrain, &floor}) {
     Pose pose;
     pose.rotation = rng.rotation();
-    pose.translation = Vec3(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
+    pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
     for (const Pose& p : {Pose::identity(), pose}) {
       const MeshInstance instance{mesh, p};
       for (int i = 0; i < testing::scaled(2000); ++i) {
-        const Vec3 local(rng.uniform(0.5, 7.5), rng.uniform(0.5, 7.5), rng.uniform(-0.6, 0.9));
+        const Vec3 local = rng.uniformVector(Vec3(0.5, 0.5, -0.6), Vec3(7.5, 7.5, 0.9));
         const Sphere bound{p.apply(local), rng.uniform(0.05, 1.2)};
         const Vec3 extent = Vec3::Constant(bound.radius);
         ASSERT_TRUE(gatherCandidates(&instance, 1, bound.center - extent, bound.center + extent,
@@ -89,8 +89,7 @@ TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
     std::size_t shared = 0, both_terrains = 0;
     const int queries = testing::scaled(1000);
     for (int i = 0; i < queries; ++i) {
-      const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
-                         rng.uniform(0.1, 1.2)};
+      const Sphere bound{rng.uniformVector(Vec3(0.0, 0.0, -0.5), Vec3(6.0, 6.0, 0.5)), rng.uniform(0.1, 1.2)};
       ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexPosition,
                                              scratch, gathered)
                       .isOk());
@@ -143,8 +142,7 @@ TEST(GatherNearSphere, PositionKeysFromIndicesAreThoseOfHashingEveryCorner) {
   std::size_t reused = 0;  // corners whose vertex an earlier candidate of the run had
   const int queries = testing::scaled(1000);
   for (int i = 0; i < queries; ++i) {
-    const Sphere bound{Vec3(rng.uniform(0.0, 6.0), rng.uniform(0.0, 6.0), rng.uniform(-0.5, 0.5)),
-                       rng.uniform(0.1, 1.2)};
+    const Sphere bound{rng.uniformVector(Vec3(0.0, 0.0, -0.5), Vec3(6.0, 6.0, 0.5)), rng.uniform(0.1, 1.2)};
     ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexIndex, scratch,
                                            gathered)
                     .isOk());

@@ -51,7 +51,7 @@ Pose somePose(std::uint64_t seed) {
   scenes::Rng rng(seed);
   Pose p;
   p.rotation = rng.rotation();
-  p.translation = Vec3(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
+  p.translation = rng.uniformVector(Vec3::Constant(-5), Vec3::Constant(5));
   return p;
 }
 

@@ -102,7 +102,7 @@ void posedQuery(ShapeQuery& q, const std::string& name, const Shape& shape, cons
 }
 
 ShapeQuery randomQuery(Rng& rng, const Surface& s, int kind, double cd) {
-  const Vec3 c(rng.uniform(s.lo.x(), s.hi.x()), rng.uniform(s.lo.y(), s.hi.y()), rng.uniform(s.lo.z(), s.hi.z()));
+  const Vec3 c = rng.uniformVector(s.lo, s.hi);
   Pose pose;
   pose.rotation = rng.rotation();
   pose.translation = c;
@@ -123,7 +123,7 @@ ShapeQuery randomQuery(Rng& rng, const Surface& s, int kind, double cd) {
     bound = capsule.radius + capsule.half_length;
     posedQuery<Capsule>(q, "capsule", capsule, pose, collideCapsule, collideCapsuleCandidates);
   } else if (kind == 2) {
-    const Box box{Vec3(rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8), rng.uniform(0.05, 0.8))};
+    const Box box{rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.8))};
     bound = box.half_extents.norm();
     posedQuery<Box>(q, "box", box, pose, collideBox, collideBoxCandidates);
   } else {

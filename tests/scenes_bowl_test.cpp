@@ -81,8 +81,7 @@ TEST(ScenesBowl, SphereOracleZeroGhostsZeroMisses) {
   const int n = testing::scaled(20000);
   int with_valid = 0, ghosts = 0, misses = 0, naive_ghosts = 0, naive_misses = 0;
   for (int i = 0; i < n; ++i) {
-    const Sphere sphere{Vec3(rng.uniform(-1.6, 1.6), rng.uniform(-1.6, 1.6), rng.uniform(-0.2, 1.6)),
-                        rng.uniform(0.05, 0.8)};
+    const Sphere sphere{rng.uniformVector(Vec3(-1.6, -1.6, -0.2), Vec3(1.6, 1.6, 1.6)), rng.uniform(0.05, 0.8)};
     QuerySettings settings;
     settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.3);
     ASSERT_TRUE(collideSphere(mesh, sphere, settings, scratch, contacts).isOk());

@@ -53,7 +53,7 @@ TEST(ShapeAlloc, BoxAndCapsuleSteadyStateAllocatesNothing) {
   for (int i = 0; i < 1000; ++i) {
     Pose p;
     p.rotation = rng.rotation();
-    p.translation = Vec3(rng.uniform(1.0, 4.0), rng.uniform(1.0, 4.0), rng.uniform(-0.03, 0.01));
+    p.translation = rng.uniformVector(Vec3(1.0, 1.0, -0.03), Vec3(4.0, 4.0, 0.01));
     poses.push_back(p);
   }
   // Lowest point of each shape at the pose's height.

@@ -104,7 +104,7 @@ TEST(ShapeConcurrency, ThreadsSharingMeshesGiveTheSingleThreadResult) {
   for (int i = 0; i < count; ++i) {
     Placement p;
     p.pose.rotation = rng.rotation();
-    p.pose.translation = Vec3(rng.uniform(0.0, 8.0), rng.uniform(0.0, 4.0), rng.uniform(-0.45, 0.5));
+    p.pose.translation = rng.uniformVector(Vec3(0.0, 0.0, -0.45), Vec3(8.0, 4.0, 0.5));
     p.contact_distance = rng.uniform() < 0.3 ? rng.uniform(0.0, 0.05) : 0.0;
     placements.push_back(p);
   }

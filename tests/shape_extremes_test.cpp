@@ -57,7 +57,7 @@ Sweep sweep(double scale, bool rotation_at_tolerance, bool with_hull) {
   std::normal_distribution<double> gauss;
   Sweep out;
   for (int i = 0; i < testing::scaled(1000); ++i) {
-    Eigen::Quaterniond q(gauss(rng), gauss(rng), gauss(rng), gauss(rng));
+    Eigen::Quaterniond q{gauss(rng), gauss(rng), gauss(rng), gauss(rng)};
     q.normalize();
     Pose pose;
     pose.rotation =

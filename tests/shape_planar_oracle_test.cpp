@@ -119,8 +119,8 @@ void capsuleOracle(const std::vector<MeshInstance>& floor, std::uint64_t seed, c
     const Capsule unit_cap{rng.uniform(0.05, 0.4), rng.uniform(0.0, 0.6)};
     const Mat3 rot = rng.rotation();
     const double lowest = rng.uniform(-0.3 * unit_cap.radius, 0.02);
-    const Vec3 unit_centre(rng.uniform(1.0, 3.0), rng.uniform(1.0, 3.0),
-                           lowest + unit_cap.radius + unit_cap.half_length * std::abs(rot(2, 2)));
+    const Vec3 unit_centre{rng.uniform(1.0, 3.0), rng.uniform(1.0, 3.0),
+                           lowest + unit_cap.radius + unit_cap.half_length * std::abs(rot(2, 2))};
     const Capsule cap{frame.length(unit_cap.radius), frame.length(unit_cap.half_length)};
     const Vec3 centre = frame.point(unit_centre);
     const Pose pose = poseFrom(rot, centre);
@@ -174,9 +174,10 @@ void capsuleLyingFlat(const Frame& frame, int placements) {
     for (int i = 0; i < placements; ++i) {
       const Capsule unit_cap{rng.uniform(0.05, 0.3), rng.uniform(0.1, 0.6)};
       const double unit_sink = rng.uniform(0.001, 0.2) * unit_cap.radius;
+      const double yaw_angle = rng.uniform(0, 2 * M_PI);
       const Pose unit_pose =
-          poseFrom(yaw(rng.uniform(0, 2 * M_PI)) * Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix(),
-                   Vec3(rng.uniform(1, 3), rng.uniform(1, 3), unit_cap.radius - unit_sink));
+          poseFrom(yaw(yaw_angle) * Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix(),
+                   Vec3{rng.uniform(1, 3), rng.uniform(1, 3), unit_cap.radius - unit_sink});
       const Capsule cap{frame.length(unit_cap.radius), frame.length(unit_cap.half_length)};
       const double sink = frame.length(unit_sink);
       const Pose pose = poseFrom(unit_pose.rotation, frame.point(unit_pose.translation));
@@ -218,11 +219,11 @@ void boxOracle(const std::vector<MeshInstance>& floor, std::uint64_t seed, const
   Tally tally;
   std::vector<Contact> contacts;
   for (int i = 0; i < placements && !::testing::Test::HasFatalFailure(); ++i) {
-    const Vec3 unit_half(rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5));
+    const Vec3 unit_half = rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.5));
     const Mat3 rot = rotation(rng);
     const double thickness = unit_half.dot(rot.row(2).transpose().cwiseAbs());  // half-height along z
     const double lowest = rng.uniform(-0.3 * unit_half.minCoeff(), 0.02);
-    const Vec3 unit_centre(rng.uniform(1.0, 3.0), rng.uniform(1.0, 3.0), lowest + thickness);
+    const Vec3 unit_centre{rng.uniform(1.0, 3.0), rng.uniform(1.0, 3.0), lowest + thickness};
     const Box box{unit_half * frame.scale};
     const Vec3 centre = frame.point(unit_centre);
     const Pose pose = poseFrom(rot, centre);
@@ -261,11 +262,13 @@ TEST(BoxPlanarOracle, Tiles) {
 // axis that stays horizontal), and a face parallel to within 1e-13..1e-5 rad
 // (round-off level up to clearly tilted). Both floors, random yaw.
 Mat3 edgeParallel(scenes::Rng& r) {
-  return Mat3(yaw(r.uniform(0, 2 * M_PI)) * Eigen::AngleAxisd(r.uniform(0, 2 * M_PI), Vec3::UnitX()));
+  const double yaw_angle = r.uniform(0, 2 * M_PI);
+  return Mat3(yaw(yaw_angle) * Eigen::AngleAxisd(r.uniform(0, 2 * M_PI), Vec3::UnitX()));
 }
 Mat3 nearlyFlat(scenes::Rng& r) {
   const double angle = std::pow(10.0, r.uniform(-13.0, -5.0));
-  return Mat3(yaw(r.uniform(0, 2 * M_PI)) * Eigen::AngleAxisd(angle, r.unitVector()));
+  const double yaw_angle = r.uniform(0, 2 * M_PI);
+  return Mat3(yaw(yaw_angle) * Eigen::AngleAxisd(angle, r.unitVector()));
 }
 
 TEST(BoxPlanarOracle, EdgeParallelAndNearlyFlat) {
@@ -286,10 +289,11 @@ void boxLyingFlat(const Frame& frame, int placements_per_floor) {
   int placements = 0;
   for (const auto* floor : {&f.flat, &f.tiles}) {
     for (int i = 0; i < placements_per_floor; ++i) {
-      const Vec3 unit_half(rng.uniform(0.05, 0.6), rng.uniform(0.05, 0.6), rng.uniform(0.05, 0.5));
+      const Vec3 unit_half = rng.uniformVector(Vec3(0.05, 0.05, 0.05), Vec3(0.6, 0.6, 0.5));
       const double unit_sink = rng.uniform(0.001, 0.2) * unit_half.z();
-      const Pose unit_pose = poseFrom(yaw(rng.uniform(0, 2 * M_PI)),
-                                      Vec3(rng.uniform(1, 3), rng.uniform(1, 3), unit_half.z() - unit_sink));
+      const double yaw_angle = rng.uniform(0, 2 * M_PI);
+      const Pose unit_pose = poseFrom(yaw(yaw_angle),
+                                      Vec3{rng.uniform(1, 3), rng.uniform(1, 3), unit_half.z() - unit_sink});
       const Box box{unit_half * frame.scale};
       const double sink = frame.length(unit_sink);
       const Pose pose = poseFrom(unit_pose.rotation, frame.point(unit_pose.translation));

@@ -56,9 +56,7 @@ TEST_P(SphereOracleTest, ZeroGhostsZeroMisses) {
   std::vector<Contact> contacts, naive;
   Tally voided, baseline;
   for (int i = 0; i < kPlacementsPerScene; ++i) {
-    const Sphere sphere{Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
-                             rng.uniform(scene.lo.z(), scene.hi.z())),
-                        rng.uniform(0.05, 0.8) * frame.scale};
+    const Sphere sphere{rng.uniformVector(scene.lo, scene.hi), rng.uniform(0.05, 0.8) * frame.scale};
     QuerySettings settings;
     settings.contact_distance = (rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5)) * frame.scale;
     ASSERT_TRUE(collideSphere(instances.data(), instances.size(), sphere, settings, scratch, contacts).isOk());

@@ -41,7 +41,7 @@ TEST(SphereProperties, PlanarTessellationGivesExactlyOnePlaneNormalContact) {
     // Tilt and move the floor: the property must hold for any plane.
     MeshInstance instance{nullptr, Pose::identity()};
     instance.pose.rotation = rng.rotation();
-    instance.pose.translation = Vec3(rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-5, 5));
+    instance.pose.translation = rng.uniformVector(Vec3::Constant(-5), Vec3::Constant(5));
     TriangleMesh mesh = testing::buildMesh(floor);
     instance.mesh = &mesh;
     const Vec3 plane_normal = instance.pose.rotation * Vec3::UnitZ();
@@ -54,8 +54,8 @@ TEST(SphereProperties, PlanarTessellationGivesExactlyOnePlaneNormalContact) {
       const double reach = radius + settings.contact_distance;
       // Centre over the floor, away from its border by the reach.
       const double extent = 12 * cell;
-      const Vec3 local(rng.uniform(reach, extent - reach), rng.uniform(reach, extent - reach),
-                       rng.uniform(1e-6, 1.0) * reach);
+      const Vec3 local{rng.uniform(reach, extent - reach), rng.uniform(reach, extent - reach),
+                       rng.uniform(1e-6, 1.0) * reach};
       const Sphere sphere{instance.pose.apply(local), radius};
       ASSERT_TRUE(collideSphere(&instance, 1, sphere, settings, scratch, contacts).isOk());
       ASSERT_EQ(contacts.size(), 1u) << "grid " << grid << " placement " << i << " local centre " << str(local)
@@ -74,8 +74,7 @@ struct Placement {
 
 Placement randomPlacement(Rng& rng, const scenes::Scene& scene) {
   Placement p;
-  p.sphere.center = Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
-                         rng.uniform(scene.lo.z(), scene.hi.z()));
+  p.sphere.center = rng.uniformVector(scene.lo, scene.hi);
   p.sphere.radius = rng.uniform(0.05, 0.8);
   p.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.6);
   return p;
@@ -148,7 +147,7 @@ TEST(SphereProperties, RigidTransformMovesContacts) {
     for (int i = 0; i < kPlacements / 5; ++i, ++tried) {
       Pose pose;
       pose.rotation = rng.rotation();
-      pose.translation = Vec3(rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-10, 10));
+      pose.translation = rng.uniformVector(Vec3::Constant(-10), Vec3::Constant(10));
       for (MeshInstance& m : moved) m.pose = pose;
       const Placement p = randomPlacement(rng, scene);
       QuerySettings settings;
@@ -189,7 +188,7 @@ TEST(SphereProperties, TiledFloorMatchesWeldedFloor) {
   std::vector<Contact> reference, pieces;
   int with_contacts = 0;
   for (int i = 0; i < kPlacements; ++i) {
-    const Sphere sphere{Vec3(rng.uniform(0, 4.5), rng.uniform(0, 4.5), rng.uniform(-0.1, 0.8)), rng.uniform(0.05, 0.8)};
+    const Sphere sphere{rng.uniformVector(Vec3(0, 0, -0.1), Vec3(4.5, 4.5, 0.8)), rng.uniform(0.05, 0.8)};
     QuerySettings settings;
     settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5);
     ASSERT_TRUE(collideSphere(welded, sphere, settings, scratch, reference).isOk());
@@ -214,8 +213,8 @@ TEST(Midphase, NeverMissesABruteForceTriangle) {
   std::vector<std::int32_t> stack;
   int total_hits = 0;
   for (int i = 0; i < kPlacements; ++i) {
-    const Vec3 centre(rng.uniform(-1, 10), rng.uniform(-1, 10), rng.uniform(-1, 1));
-    const Vec3 half(rng.uniform(0, 0.6), rng.uniform(0, 0.6), rng.uniform(0, 0.6));
+    const Vec3 centre = rng.uniformVector(Vec3(-1, -1, -1), Vec3(10, 10, 1));
+    const Vec3 half = rng.uniformVector(Vec3::Constant(0), Vec3::Constant(0.6));
     const Vec3 lo = centre - half, hi = centre + half;
     hits.clear();
     mesh.queryBox(lo, hi, hits, stack);
@@ -260,7 +259,7 @@ TEST(Midphase, LargeQueriesGrowTheQueueAndMissNothing) {
   };
   std::vector<std::int32_t> reused;
   for (int i = 0; i < 40; ++i) {
-    const Vec3 centre(rng.uniform(2, 8), rng.uniform(2, 8), 0.0);
+    const Vec3 centre{rng.uniform(2, 8), rng.uniform(2, 8), 0.0};
     const double r = rng.uniform(1.0, 6.0);
     const Vec3 lo = centre - Vec3::Constant(r), hi = centre + Vec3::Constant(r);
     Expected box, ball;
@@ -318,7 +317,7 @@ TEST(Midphase, VisitNearSphereVisitsTheSphereQuerysTrianglesAndStopsAtAHit) {
   std::vector<std::int32_t> queue, stack(3, 7);  // a stack left holding junk
   std::size_t stopped = 0, total = 0, first_near = 0;
   for (int i = 0; i < 200; ++i) {
-    const Vec3 centre(rng.uniform(0.5, 14.5), rng.uniform(0.5, 14.5), rng.uniform(-0.3, 0.3));
+    const Vec3 centre = rng.uniformVector(Vec3(0.5, 0.5, -0.3), Vec3(14.5, 14.5, 0.3));
     const double r = rng.uniform(0.05, 1.5);
     std::vector<std::uint32_t> hits;
     mesh.querySphere(centre, r, hits, queue);
@@ -476,7 +475,7 @@ TEST(SphereProperties, ContactsAndTraceAreEachTrianglesClosestPoint) {
   std::vector<TraceEntry> trace;
   int edge_or_vertex = 0, voided = 0;
   for (int i = 0; i < kPlacements / 10; ++i) {
-    const Sphere sphere{Vec3(rng.uniform(0, 6), rng.uniform(0, 6), rng.uniform(-0.1, 0.8)), rng.uniform(0.1, 1.0)};
+    const Sphere sphere{rng.uniformVector(Vec3(0, 0, -0.1), Vec3(6, 6, 0.8)), rng.uniform(0.1, 1.0)};
     for (const FilterMode filter : {FilterMode::kVoidedFeatures, FilterMode::kNone}) {
       QuerySettings settings;
       settings.filter = filter;

@@ -20,7 +20,7 @@ namespace {
 struct Rng {
   explicit Rng(unsigned seed) : engine(seed) {}
   double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(engine); }
-  Vec3 point(double extent) { return Vec3(uniform(-extent, extent), uniform(-extent, extent), uniform(-extent, extent)); }
+  Vec3 point(double extent) { return Vec3{uniform(-extent, extent), uniform(-extent, extent), uniform(-extent, extent)}; }
   std::mt19937_64 engine;
 };
 
@@ -114,7 +114,7 @@ TEST(BoxTriangleOverlap, AgreesWithCertificatesOfOverlapAndSeparation) {
   Rng rng(5);
   int overlapping = 0, separate = 0, undecided = 0;
   for (int i = 0; i < testing::scaled(3000); ++i) {
-    const Vec3 h(rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0));
+    const Vec3 h{rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0)};
     const Vec3 centre = rng.point(1.5);
     const Vec3 a = centre + rng.point(1.0), b = centre + rng.point(1.0), c = centre + rng.point(1.0);
     if ((b - a).cross(c - a).norm() < 1e-3) continue;

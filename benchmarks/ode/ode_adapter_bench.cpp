@@ -102,8 +102,8 @@ std::vector<RoundPlacement> roundPlacements(const peers::CompareScene& scene, Sh
                          (shape == Shape::kCapsule ? p.radius
                                                    : p.radius * std::sqrt(std::max(0.0, 1.0 - axial * axial)));
     const double depth = rng.uniform(-0.01, 0.05);
-    p.pose.translation = mc::Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
-                                  below - depth);
+    p.pose.translation = mc::Vec3{rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
+                                  below - depth};
     out.push_back(p);
   }
   return out;

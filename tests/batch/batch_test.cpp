@@ -82,7 +82,7 @@ void expectEqual(const Sequential& seq, const BatchOutput& out, const std::vecto
 Pose randomPose(Rng& rng, const Vec3& lo, const Vec3& hi) {
   Pose p;
   p.rotation = rng.rotation();
-  p.translation = Vec3(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()), rng.uniform(lo.z(), hi.z()));
+  p.translation = rng.uniformVector(lo, hi);
   return p;
 }
 
@@ -97,8 +97,7 @@ std::vector<BatchQuery> mixedQueries(int count, const Vec3& lo, const Vec3& hi, 
       case 0: queries.push_back(BatchQuery::ofSphere({pose.translation, rng.uniform(0.05, 0.6)})); break;
       case 1: queries.push_back(BatchQuery::ofCapsule({rng.uniform(0.05, 0.3), rng.uniform(0.05, 0.5)}, pose)); break;
       case 2:
-        queries.push_back(BatchQuery::ofBox(
-            {Vec3(rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5), rng.uniform(0.05, 0.5))}, pose));
+        queries.push_back(BatchQuery::ofBox({rng.uniformVector(Vec3::Constant(0.05), Vec3::Constant(0.5))}, pose));
         break;
       case 3: queries.push_back(BatchQuery::ofCylinder({rng.uniform(0.1, 0.4), rng.uniform(0.1, 0.4)}, pose)); break;
       default: queries.push_back(BatchQuery::ofConvex(hull, pose)); break;

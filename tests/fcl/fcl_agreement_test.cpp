@@ -77,8 +77,8 @@ void runAgreement(const ShapeCase& shape, const MeshCase& mc, std::uint64_t seed
     const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
     const bool shallow = rng.uniform() < 0.5;
     const double bottom = shallow ? rng.uniform(-shape.oracleDepth(), 0.02 * h) : rng.uniform(-1.2 * h, 0.5 * h);
-    local.translation = Vec3(rng.uniform(mc.lo.x(), mc.hi.x()), rng.uniform(mc.lo.y(), mc.hi.y()),
-                             mc.planar ? bottom + low : rng.uniform(mc.lo.z(), mc.hi.z()));
+    local.translation = Vec3{rng.uniform(mc.lo.x(), mc.hi.x()), rng.uniform(mc.lo.y(), mc.hi.y()),
+                             mc.planar ? bottom + low : rng.uniform(mc.lo.z(), mc.hi.z())};
     const Pose world = mesh_pose * local;
     for (auto* o : {&shape_object, &small_object, &big_object}) {
       o->setTransform(toTransform(world));

@@ -28,7 +28,7 @@ TEST(FclAllocation, NoAllocationPerQueryOnceWarm) {
       Pose pose = fcltest::randomPose(rng, 1.0);
       // Centres from 1.5 half-sizes below the floor to one above: most
       // poses sunk through it (the fallback), the others resting on it.
-      pose.translation = Vec3(rng.uniform(1, 7), rng.uniform(1, 7), rng.uniform(-1.5 * h, h));
+      pose.translation = rng.uniformVector(Vec3(1, 1, -1.5 * h), Vec3(7, 7, h));
       objects.emplace_back(geometry, fcltest::toTransform(pose));
     }
     fcl::Scratch scratch;

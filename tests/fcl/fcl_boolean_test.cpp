@@ -122,7 +122,8 @@ TEST(Boolean, ChecksAnswerAsTheContactsQuery) {
         const double x = rng.uniform(0.8, 5.2), y = rng.uniform(0.8, 5.2);
         // From deep inside (centre well below the surface) to clear above,
         // most poses touching: the sine terrain stays within +-0.5.
-        const double z = (k == 0 ? 0.0 : rng.uniform(-0.5, 0.5)) + h * rng.uniform(-0.9, 1.5);
+        const double level = k == 0 ? 0.0 : rng.uniform(-0.5, 0.5);
+        const double z = level + h * rng.uniform(-0.9, 1.5);
         pose.translation = Vec3(x, y, z);
         const ::fcl::CollisionObjectd m(model, toTransform(Pose::identity()));
         const ::fcl::CollisionObjectd s(geometry, toTransform(pose));

@@ -79,7 +79,7 @@ TEST(Broadphase, TilesAreOneSurface) {
       local.rotation = rng.rotation();
       const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
       local.translation =
-          Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), low + rng.uniform(-shape.oracleDepth(), 0.02));
+          Vec3{rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), low + rng.uniform(-shape.oracleDepth(), 0.02)};
       if (shape.kind == Kind::kSphere) local.translation.z() = rng.uniform(0.01, 1.0) * shape.dims.x();
       cases.push_back(shape);
       locals.push_back(local);
@@ -218,7 +218,7 @@ ClearPlacement clearPlacement(const ShapeCase& shape, double p_across, double p_
   if (out.across) z = rng.uniform(-high + 1e-3, low - 1e-3);
   else if (out.above) z = low + rng.uniform(1e-3, 0.1);
   else z = -high - rng.uniform(1e-3, 0.1);
-  out.local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z);
+  out.local.translation = Vec3{rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), z};
   return out;
 }
 

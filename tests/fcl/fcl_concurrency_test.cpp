@@ -52,7 +52,7 @@ TEST(FclConcurrency, ThreadsSharingABVHModelGiveTheSingleThreadResult) {
   for (int i = 0; i < count; ++i) {
     Pose p;
     p.rotation = rng.rotation();
-    p.translation = Vec3(rng.uniform(0.5, 8.5), rng.uniform(-0.25, 3.75), rng.uniform(-0.3, 0.6));
+    p.translation = rng.uniformVector(Vec3(0.5, -0.25, -0.3), Vec3(8.5, 3.75, 0.6));
     poses.push_back(fcltest::toTransform(p));
   }
 

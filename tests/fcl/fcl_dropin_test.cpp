@@ -37,7 +37,7 @@ TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
   TerrainPose p;
   p.mesh = randomPose(rng, 2.0);
   p.local.rotation = rng.rotation();
-  p.local.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(z_lo, z_hi));
+  p.local.translation = rng.uniformVector(Vec3(0.5, 0.5, z_lo), Vec3(4.5, 4.5, z_hi));
   p.world = p.mesh * p.local;
   return p;
 }
@@ -476,8 +476,8 @@ TEST(DropIn, SunkShapesCollideAtEveryScale) {
         const double up = shape.extentAlong(pose.rotation.transpose() * Vec3::UnitZ());
         const double down = shape.extentAlong(pose.rotation.transpose() * -Vec3::UnitZ());
         const bool sunk = i % 2 == 0;
-        pose.translation = Vec3(rng.uniform(1.0, 3.0) * scale, rng.uniform(1.0, 3.0) * scale,
-                                sunk ? -0.5 * up : down + 0.5 * (up + down));
+        pose.translation = Vec3{rng.uniform(1.0, 3.0) * scale, rng.uniform(1.0, 3.0) * scale,
+                                sunk ? -0.5 * up : down + 0.5 * (up + down)};
         const ::fcl::CollisionObjectd object(geometry, toTransform(pose));
         std::ostringstream config;
         config << shape.name << " at scale " << scale << ", pose " << i << (sunk ? " (sunk)" : " (clear)");
@@ -624,10 +624,10 @@ TEST(DropIn, BoxSetDownExactlyOnAFloorTouches) {
   QueryScratch core_scratch;
   std::vector<Contact> core_contacts;
   for (int i = 0; i < 2000; ++i) {
-    const Vec3 e(rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5), rng.uniform(0.1, 0.5));
+    const Vec3 e = rng.uniformVector(Vec3::Constant(0.1), Vec3::Constant(0.5));
     Pose pose;
     pose.rotation = Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3::UnitZ()).toRotationMatrix();
-    pose.translation = Vec3(rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z());
+    pose.translation = Vec3{rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z()};
     const ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(2.0 * e), toTransform(pose));
     ::fcl::CollisionResultd result;
     ASSERT_TRUE(fcl::collide(&mesh, &box, contactsRequest(), result, fcl::Options(), scratch).isOk());
@@ -681,7 +681,7 @@ TEST(DropIn, ThreadsGetTheSameAnswers) {
   for (int i = 0; i < count; ++i) {
     Pose p;
     p.rotation = rng.rotation();
-    p.translation = Vec3(rng.uniform(0.5, 4.5), rng.uniform(0.5, 4.5), rng.uniform(-0.3, 0.6));
+    p.translation = rng.uniformVector(Vec3(0.5, 0.5, -0.3), Vec3(4.5, 4.5, 0.6));
     poses.push_back(p);
   }
   auto run = [&](std::vector<std::vector<::fcl::Contactd>>& out) {
@@ -1195,7 +1195,7 @@ TEST(DropInShapes, ConeNearestCorePointIsTheProjection) {
   scenes::Rng rng(61);
   int inside = 0;
   for (int i = 0; i < 20000; ++i) {
-    const Vec3 x(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6));
+    const Vec3 x = rng.uniformVector(Vec3::Constant(-0.6), Vec3::Constant(0.6));
     Vec3 p, q;
     ASSERT_TRUE(cone.nearestCorePoint(x, p));
     ASSERT_TRUE(documented.nearestCorePoint(x, q));

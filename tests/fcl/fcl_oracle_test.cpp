@@ -92,8 +92,7 @@ void sphereOracle(const char* mesh_name, const SceneMesh& mesh, const Vec3& lo, 
   for (int i = 0; i < kPoses; ++i) {
     Pose local;
     local.rotation = rng.rotation();
-    local.translation = Vec3(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()),
-                             rng.uniform(lo.z(), hi.z()));
+    local.translation = rng.uniformVector(lo, hi);
     fcl::Report rep;
     const bool mesh_first = i % 2 == 0;
     const std::vector<Contact> contacts = q.run(local, mesh_first, rep);
@@ -135,7 +134,7 @@ void planarOracle(const ShapeCase& shape, const char* mesh_name, const SceneMesh
     local.rotation = rng.rotation();
     const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
     const double bottom = rng.uniform(-shape.oracleDepth(), 0.02 * h);
-    local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), bottom + low);
+    local.translation = Vec3{rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), bottom + low};
     fcl::Report rep;
     const bool mesh_first = i % 2 == 0;
     const std::vector<Contact> contacts = q.run(local, mesh_first, rep);

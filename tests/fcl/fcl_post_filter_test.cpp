@@ -123,8 +123,8 @@ void spheres(fcl::PostFilterMode mode) {
     for (int i = 0; i < testing::scaled(3000); ++i) {
       const double r = rng.uniform(0.05, 0.6);
       Pose local;
-      local.translation = step ? Vec3(rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2), rng.uniform(0.0, 1.6))
-                               : Vec3(rng.uniform(0.6, 3.4), rng.uniform(0.6, 3.4), rng.uniform(1e-3, 1.2) * r);
+      local.translation = step ? Vec3{rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2), rng.uniform(0.0, 1.6)}
+                               : Vec3{rng.uniform(0.6, 3.4), rng.uniform(0.6, 3.4), rng.uniform(1e-3, 1.2) * r};
       ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(r), toTransform(mesh_pose * local));
       const bool mesh_first = i % 2 == 0;
       const ::fcl::CollisionObjectd& o1 = mesh_first ? mesh : sphere;
@@ -186,7 +186,7 @@ void spheresOnEachBv(const char* bv_name) {
   for (int i = 0; i < testing::scaled(400); ++i) {
     const double r = rng.uniform(0.05, 0.6);
     Pose local;
-    local.translation = Vec3(rng.uniform(0.6, 3.4), rng.uniform(0.6, 3.4), rng.uniform(1e-3, 1.2) * r);
+    local.translation = Vec3{rng.uniform(0.6, 3.4), rng.uniform(0.6, 3.4), rng.uniform(1e-3, 1.2) * r};
     ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(r), toTransform(mesh_pose * local));
     const bool mesh_first = i % 2 == 0;
     const ::fcl::CollisionObjectd& o1 = mesh_first ? mesh : sphere;
@@ -245,7 +245,7 @@ void shapesOnFloor(const ShapeCase& shape, ::fcl::GJKSolverType solver, fcl::Pos
     local.rotation = rng.rotation();
     const double low = shape.extentAlong(local.rotation.transpose() * -Vec3::UnitZ());
     const double bottom = rng.uniform(-shape.oracleDepth(), 0.0);
-    local.translation = Vec3(rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), bottom + low);
+    local.translation = Vec3{rng.uniform(0.8, 3.2), rng.uniform(0.8, 3.2), bottom + low};
     object.setTransform(toTransform(mesh_pose * local));
     object.computeAABB();
     const bool mesh_first = i % 2 == 0;

@@ -42,7 +42,7 @@ inline ::fcl::Transform3d toTransform(const Pose& p) {
 inline Pose randomPose(scenes::Rng& rng, double extent) {
   Pose p;
   p.rotation = rng.rotation();
-  p.translation = Vec3(rng.uniform(-extent, extent), rng.uniform(-extent, extent), rng.uniform(-extent, extent));
+  p.translation = rng.uniformVector(Vec3::Constant(-extent), Vec3::Constant(extent));
   return p;
 }
 

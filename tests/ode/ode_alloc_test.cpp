@@ -57,7 +57,7 @@ long allocationsInSecondPass(dGeomID shape) {
   std::vector<Mat3> rotations;
   scenes::Rng rng(9);
   for (int i = 0; i < 200; ++i) {
-    positions.emplace_back(rng.uniform(0.5, 2.5), rng.uniform(0.5, 2.5), rng.uniform(-0.1, 0.4));
+    positions.push_back(rng.uniformVector(Vec3(0.5, 0.5, -0.1), Vec3(2.5, 2.5, 0.4)));
     rotations.push_back(rng.rotation());
   }
   long contacts = 0;

@@ -132,8 +132,7 @@ TEST(OdeConcurrency, ThreadsSharingTriMeshDataGiveTheSingleThreadResult) {
   Rng rng(77);
   std::vector<Placement> placements;
   for (int i = 0; i < count; ++i)
-    placements.push_back(
-        {Vec3(rng.uniform(0.0, 8.0), rng.uniform(0.0, 4.0), rng.uniform(-0.4, 0.55)), rng.rotation()});
+    placements.push_back({rng.uniformVector(Vec3(0.0, 0.0, -0.4), Vec3(8.0, 4.0, 0.55)), rng.rotation()});
 
   Results single;
   {

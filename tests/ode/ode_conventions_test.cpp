@@ -172,7 +172,7 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
     for (int trial = 0; trial < 300; ++trial) {
       // Near the cliff edge (x = 0, z = 0.5 in the mesh frame) so that faces,
       // edges and the wall all take part.
-      const Vec3 local(rng.uniform(-0.8, 0.8), rng.uniform(-1.0, 1.0), rng.uniform(0.0, 0.5 + sc.reach));
+      const Vec3 local = rng.uniformVector(Vec3(-0.8, -1.0, 0.0), Vec3(0.8, 1.0, 0.5 + sc.reach));
       const Vec3 world = pose.apply(local);
       dGeomSetPosition(shape, world.x(), world.y(), world.z());
       odetest::setGeomRotation(shape, rng.rotation());
@@ -244,7 +244,8 @@ TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
     int contacts = 0;
     for (int trial = 0; trial < 300; ++trial) {
       // Near the cliff edge (x = 0, z = 0.5): the floor, the edge, the wall.
-      dGeomSetPosition(shape, rng.uniform(-0.8, 0.8), rng.uniform(-1.0, 1.0), rng.uniform(0.0, 0.8));
+      const Vec3 p = rng.uniformVector(Vec3(-0.8, -1.0, 0.0), Vec3(0.8, 1.0, 0.8));
+      dGeomSetPosition(shape, p.x(), p.y(), p.z());
       dContactGeom out[64];
       const int n = dCollide(om.geom, shape, 64, out, sizeof(dContactGeom));
       ASSERT_GE(n, 0);
@@ -344,7 +345,7 @@ TEST(OdeConventions, UnregisteredDataIsReadThroughOde) {
   QuerySettings settings = ode::currentSettings().query;
   int compared = 0;
   for (int trial = 0; trial < 400; ++trial) {
-    const Vec3 c(rng.uniform(0.5, 3.5), rng.uniform(0.5, 3.5), rng.uniform(-0.1, 0.5));
+    const Vec3 c = rng.uniformVector(Vec3(0.5, 0.5, -0.1), Vec3(3.5, 3.5, 0.5));
     dGeomSetPosition(sphere, c.x(), c.y(), c.z());
     QueryScratch scratch;
     std::vector<Contact> want_exact, want_float;
@@ -432,8 +433,8 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   int ghosts_without_group = 0, seam_cases = 0;
   for (int trial = 0; trial < 300; ++trial) {
     // Centres near the tile seams (every 1 m).
-    const Vec3 c(std::round(rng.uniform(0.6, 3.4)) + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6),
-                 rng.uniform(0.05, 0.3));
+    const double seam = std::round(rng.uniform(0.6, 3.4));
+    const Vec3 c{seam + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6), rng.uniform(0.05, 0.3)};
     dGeomSetPosition(sphere, c.x(), c.y(), c.z());
     QueryScratch scratch;
     std::vector<Contact> want;
@@ -446,8 +447,8 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   ASSERT_TRUE(ode::makeGroup(geoms.data(), static_cast<int>(geoms.size())).isOk());
   rng = scenes::Rng(5);
   for (int trial = 0; trial < 300; ++trial) {
-    const Vec3 c(std::round(rng.uniform(0.6, 3.4)) + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6),
-                 rng.uniform(0.05, 0.3));
+    const double seam = std::round(rng.uniform(0.6, 3.4));
+    const Vec3 c{seam + rng.uniform(-0.2, 0.2), rng.uniform(0.4, 3.6), rng.uniform(0.05, 0.3)};
     dGeomSetPosition(sphere, c.x(), c.y(), c.z());
     QueryScratch scratch;
     std::vector<Contact> want;
@@ -498,7 +499,7 @@ TEST(OdeConventions, TriangleFilterPassesOnlyKeptTriangles) {
   scenes::Rng rng(8);
   int filtered_away = 0;
   for (int trial = 0; trial < 300; ++trial) {
-    const Vec3 c(rng.uniform(0.5, 3.5), rng.uniform(0.5, 3.5), rng.uniform(0.1, 0.3));
+    const Vec3 c = rng.uniformVector(Vec3(0.5, 0.5, 0.1), Vec3(3.5, 3.5, 0.3));
     dGeomSetPosition(sphere, c.x(), c.y(), c.z());
     ode::detachTriangleFilter(om.geom);
     dContactGeom native[32];
@@ -964,7 +965,8 @@ TEST(OdeConventions, ThreadsShareTheCacheAndGetTheSameContacts) {
     dGeomID sphere = dCreateSphere(nullptr, 0.4);
     scenes::Rng rng(77);
     for (int t = 0; t < kTrials; ++t) {
-      dGeomSetPosition(sphere, rng.uniform(0.5, 7.5), rng.uniform(0.5, 7.5), rng.uniform(-0.3, 0.6));
+      const Vec3 p = rng.uniformVector(Vec3(0.5, 0.5, -0.3), Vec3(7.5, 7.5, 0.6));
+      dGeomSetPosition(sphere, p.x(), p.y(), p.z());
       dContactGeom c[16];
       const int n = dCollide(mesh, sphere, 16, c, sizeof(dContactGeom));
       for (int i = 0; i < n; ++i) depths.push_back(c[i].depth + 10.0 * c[i].side1);

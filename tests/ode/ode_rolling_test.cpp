@@ -166,7 +166,7 @@ TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
     }
     Pose pose = Pose::identity();
     pose.rotation = rotation;
-    pose.translation = Vec3(rng.uniform(1.0, 12.0), rng.uniform(0.5, 3.5), touching ? e.z() : -highest - sink);
+    pose.translation = Vec3{rng.uniform(1.0, 12.0), rng.uniform(0.5, 3.5), touching ? e.z() : -highest - sink};
     ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
     bool matched[4] = {false, false, false, false};
     double worst = 0.0;

@@ -165,8 +165,7 @@ OracleTally runOracle(const TriangleMesh& mesh, const SceneMesh& scene, const Ve
   std::vector<Contact> contacts;
   OracleTally tally;
   for (int i = 0; i < count; ++i) {
-    const Sphere sphere{Vec3(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()), rng.uniform(lo.z(), hi.z())),
-                        rng.uniform(0.05, 0.8)};
+    const Sphere sphere{rng.uniformVector(lo, hi), rng.uniform(0.05, 0.8)};
     QuerySettings settings;
     settings.contact_distance = rng.uniform() < 0.5 ? 0.0 : rng.uniform(0.0, 0.5);
     const Status s = collideSphere(mesh, sphere, settings, scratch, contacts);

@@ -191,7 +191,8 @@ class Soak {
 
   void redrop(Body& b, Rng& rng) {
     const double x0 = b.region == 0 ? 0.0 : 14.0;
-    dBodySetPosition(b.body, x0 + rng.uniform(1.0, 11.0), rng.uniform(1.0, 11.0), rng.uniform(1.5, 2.5));
+    const Vec3 p = rng.uniformVector(Vec3(1.0, 1.0, 1.5), Vec3(11.0, 11.0, 2.5));
+    dBodySetPosition(b.body, x0 + p.x(), p.y(), p.z());
     setRotation(b.body, rng.rotation());
     dBodySetLinearVel(b.body, 0, 0, 0);
     dBodySetAngularVel(b.body, 0, 0, 0);

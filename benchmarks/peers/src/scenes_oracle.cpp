@@ -264,8 +264,7 @@ std::vector<SpherePlacement> spherePlacements(const CompareScene& scene, const L
   std::vector<SpherePlacement> out;
   out.reserve(static_cast<std::size_t>(std::max(count, 0)));
   while (static_cast<int>(out.size()) < count) {
-    const Vec3 c(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
-                 rng.uniform(scene.lo.z(), scene.hi.z()));
+    const Vec3 c = rng.uniformVector(scene.lo, scene.hi);
     const double r = rng.uniform(scene.min_radius, scene.max_radius);
     // Touching: some front-facing triangle strictly closer than the radius.
     if (oracle.nearestDistance(c, r) < r) out.push_back({c, r});
@@ -278,7 +277,7 @@ std::vector<BoxPlacement> boxPlacements(const CompareScene& scene, int count, st
   std::vector<BoxPlacement> out;
   for (int i = 0; i < count; ++i) {
     BoxPlacement b;
-    b.half_extents = Vec3(rng.uniform(0.1, 0.4), rng.uniform(0.1, 0.4), rng.uniform(0.1, 0.4));
+    b.half_extents = rng.uniformVector(Vec3::Constant(0.1), Vec3::Constant(0.4));
     b.pose.rotation = rng.rotation();
     // Lowest corner at z = -depth (the floor is z = 0).
     double lowest = 0;
@@ -288,8 +287,8 @@ std::vector<BoxPlacement> boxPlacements(const CompareScene& scene, int count, st
       lowest = std::min(lowest, (b.pose.rotation * corner).z());
     }
     const double depth = rng.uniform(-0.01, 0.05);
-    b.pose.translation = Vec3(rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
-                              -lowest - depth);
+    b.pose.translation = Vec3{rng.uniform(scene.lo.x(), scene.hi.x()), rng.uniform(scene.lo.y(), scene.hi.y()),
+                              -lowest - depth};
     out.push_back(b);
   }
   return out;

@@ -33,6 +33,12 @@ std::uint64_t Rng::next() {
 double Rng::uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
 double Rng::uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
 
+Vec3 Rng::uniformVector(const Vec3& lo, const Vec3& hi) {
+  // Each declarator is a full-expression of its own: x, then y, then z (see the header).
+  const double x = uniform(lo.x(), hi.x()), y = uniform(lo.y(), hi.y()), z = uniform(lo.z(), hi.z());
+  return Vec3(x, y, z);
+}
+
 Vec3 Rng::unitVector() {
   const double z = uniform(-1.0, 1.0);
   const double phi = uniform(0.0, 2.0 * M_PI);

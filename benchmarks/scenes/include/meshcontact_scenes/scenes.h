@@ -34,6 +34,14 @@ class Rng {
   std::uint64_t next();
   double uniform();                      // [0, 1)
   double uniform(double lo, double hi);  // [lo, hi)
+  /// A point of the box [lo, hi): uniform(lo.x(), hi.x()), then y, then z, drawn
+  /// in that order. Use it rather than Vec3(uniform(..), uniform(..), uniform(..)):
+  /// the order in which a call's or a constructor's parenthesised arguments are
+  /// evaluated is unspecified (GCC goes right to left, Clang left to right), so
+  /// the same seed would give different points in a GCC and a Clang build. (A
+  /// braced list, Vec3{...}, is evaluated left to right; so are separate
+  /// statements.)
+  Vec3 uniformVector(const Vec3& lo, const Vec3& hi);
   Vec3 unitVector();
   /// A uniformly random rotation (quaternion from three uniforms, Shoemake).
   Mat3 rotation();
