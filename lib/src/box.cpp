@@ -59,14 +59,14 @@
 //  5. Intersecting, not owned: the separating axis of least penetration
 //     among directions with N.n >= -sin 15 degrees (kSidewaysDip: no normal
 //     pulls the box through the triangle's back, while a box's side face
-//     tilted by a little still counts as sideways). Ties and near-ties prefer the triangle normal, then
-//     the box faces, then the edges: a later axis must beat the current one
-//     by 5% of |pen| plus 1e-6 of the box's size (Box2D's reference-face
-//     bias, Gregorius' "Robust Contact Creation"). For n the penetration is
-//     its exact directional depth (the box's deepest point over the
-//     triangle, not the SAT overlap), and when that point lies inside the
-//     prism the bias is 50% (kInteriorFaceBias). Manifold (points on the box,
-//     depths along N):
+//     tilted by a little still counts as sideways). Ties and near-ties
+//     prefer the triangle normal, then the box faces, then the edges: a
+//     later axis must beat the current one by 5% of |pen| plus 1e-6 of the
+//     box's size (Box2D's reference-face bias, Gregorius' "Robust Contact
+//     Creation"). For n the penetration is its exact directional depth (the
+//     box's deepest point over the triangle, not the SAT overlap), and when
+//     that point lies inside the prism the bias is 50% (kInteriorFaceBias).
+//     Manifold (points on the box, depths along N):
 //     - N = n: the incident face clipped to the prism, plus the deepest
 //       point over the triangle; a face patch (n is the support feature);
 //     - N = +-u_i: the triangle clipped to the side planes of the box face
