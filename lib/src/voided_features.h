@@ -308,15 +308,17 @@ bool heldByPosition(const CandidateTriangle* candidates, FilterScratch& s, Featu
   if (entered <= kPositionScanLimit) {
     for (std::size_t i = 0; i < entered; ++i) {
       const SortItem& r = s.voided.rank(i);
-      if (!(r < rank) || !holder(r)) continue;
+      if (!(r < rank)) continue;
       const Vec3* v = candidates[s.patch_candidate[r.patch]].vertices;
       // Exact comparison, as position keys compare bits (finite corners;
       // -0 == +0): a among the corners, then b among them, as
       // VoidedSet::isVoidedBefore tests keys (an edge whose ends share a
       // position, only found on triangles the narrowphases call degenerate,
-      // then needs no second corner there either).
+      // then needs no second corner there either). The holder is asked
+      // last, only of a triangle that holds the feature, as the keys' set
+      // does: a holder may act on each one (markPlanePushes' visit).
       if (!(v[0] == a || v[1] == a || v[2] == a)) continue;
-      if (vertex || v[0] == b || v[1] == b || v[2] == b) return true;
+      if ((vertex || v[0] == b || v[1] == b || v[2] == b) && holder(r)) return true;
     }
     return false;
   }
@@ -442,18 +444,8 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
         return false;  // every holder
       };
       s.voided.isHeldBefore(FeatureType::kEdge, c.keys[k], c.keys[(k + 1) % 3], any, visit);
-      if (identity == VertexIdentity::kKeysOrPositions) {
-        if (entered <= kPositionScanLimit) {  // heldByPosition's scan asks its holder before it compares
-          const Vec3& a = c.vertices[k];
-          const Vec3& b = c.vertices[(k + 1) % 3];
-          for (std::size_t i = 0; i < entered; ++i) {
-            const Vec3* v = candidates[s.patch_candidate[i]].vertices;
-            if ((v[0] == a || v[1] == a || v[2] == a) && (v[0] == b || v[1] == b || v[2] == b)) visit(s.voided.rank(i));
-          }
-        } else {
-          heldByPosition(candidates, s, Feature::edge(k), c, any, positions_built, visit);
-        }
-      }
+      if (identity == VertexIdentity::kKeysOrPositions)
+        heldByPosition(candidates, s, Feature::edge(k), c, any, positions_built, visit);
       const auto tt = static_cast<std::uint32_t>(t), kk = static_cast<std::uint32_t>(k);
       if (!same) s.open_edges.push_back({tt, tt, kk});
       if (other) s.creases.push_back({tt, tt, kk});
