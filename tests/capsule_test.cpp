@@ -88,7 +88,7 @@ Pose poseFrom(const Mat3& r, const Vec3& t) {
 
 // Rotation taking local z to `axis`.
 Mat3 alongZ(const Vec3& axis) {
-  return Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis.normalized()).toRotationMatrix();
+  return scenes::rotationBetween(Vec3::UnitZ(), axis.normalized());
 }
 
 // --- One triangle, every region, under a mesh pose and a capsule pose ------

@@ -262,7 +262,7 @@ TEST(ConvexRegions, BoxHullCornerPerRegion) {
       const Vec3 u = (region.above + Vec3(0, 0, 0.2) - target).normalized();  // mesh frame
       // Rotation taking the box's corner direction (-1,-1,-1)/sqrt3 to -u.
       const Vec3 corner_dir = Vec3(-1, -1, -1).normalized();
-      const Mat3 turn = Eigen::Quaterniond::FromTwoVectors(corner_dir, -u).toRotationMatrix();
+      const Mat3 turn = scenes::rotationBetween(corner_dir, -u);
       for (double gap : {0.05, -1.3 * margin, -0.02}) {
         const std::string config = std::string(region.name) + " gap " + std::to_string(gap) + " trial " +
                                    std::to_string(trial);
@@ -808,7 +808,7 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
     };
     for (const double along : {2.5, 3.25}) {
       Pose pose;
-      pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), axis).toRotationMatrix();
+      pose.rotation = scenes::rotationBetween(Vec3::UnitZ(), axis);
       pose.translation = r * Vec3(along, along, 0) + offset + (cylinder.radius - 0.003) * n;
       ASSERT_TRUE(collideCylinder(mesh, cylinder, pose, QuerySettings(), scratch, contacts).isOk());
       span(pose, cylinder.half_length - cylinder_shape.margin(),

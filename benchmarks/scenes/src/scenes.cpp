@@ -58,6 +58,10 @@ Mat3 Rng::rotation() {
   return r;
 }
 
+Mat3 rotationBetween(const Vec3& from, const Vec3& to) {
+  return Eigen::Quaterniond::FromTwoVectors(from, to).toRotationMatrix();
+}
+
 void addGridPatch(SceneMesh& mesh, const Vec3& origin, const Vec3& u, const Vec3& v, int nu, int nv, Rng& rng,
                   double jitter) {
   jitter = std::clamp(jitter, 0.0, 0.2499);  // see the header: no folded triangles
