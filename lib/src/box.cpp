@@ -181,38 +181,6 @@ bool tiltedAxisMayBeCheaper(const Axis* axes, int count, const Vec3& n, double l
   return false;
 }
 
-// Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman).
-// Each vertex's signed distance is computed once and carried to the next
-// edge, where it is that edge's start (the same value either way). A value
-// within `noise` of 0 is 0 (on the plane, kept): a polygon edge lying along
-// the plane (a box face's edge over a triangle's edge: a box on a grid
-// whose cells it covers) has values of rounding noise of either sign, and
-// clipping at their ratio put a point mid-edge in place of a corner.
-int clipPolygon(const Vec3* in, int count, const Vec3& plane, double offset, double noise, Vec3* out) {
-  if (count == 0) return 0;
-  int n = 0;
-  const auto value = [&](const Vec3& x) {
-    const double d = plane.dot(x) + offset;
-    return std::abs(d) <= noise ? 0.0 : d;
-  };
-  const double d0 = value(in[0]);
-  double da = d0;
-  for (int i = 0; i < count; ++i) {
-    const Vec3& a = in[i];
-    const bool last = i + 1 == count;
-    const Vec3& b = last ? in[0] : in[i + 1];
-    const double db = last ? d0 : value(b);
-    if (da >= 0.0) out[n++] = a;
-    // Only a strict crossing adds a point: an end on the plane (0) is that
-    // point already, kept as a or as the next edge's a. (Added again, a
-    // corner of the box over a mesh vertex came out twice, and the two
-    // copies took two of a patch's four places from a real corner.)
-    if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) out[n++] = a + (da / (da - db)) * (b - a);
-    da = db;
-  }
-  return n;
-}
-
 // The box's deepest point below the triangle's plane among its points over
 // the triangle (box ∩ prism): the exact distance the box must move along n to
 // clear the triangle, and where on the triangle that happens. Depth is
@@ -372,6 +340,43 @@ struct Polygon {
   Vec3* spare() { return pts == buffer[0] ? buffer[1] : buffer[0]; }
 };
 
+// Keeps the polygon's part where plane.(x) + offset >= 0 (Sutherland-Hodgman),
+// in place. A value within `noise` of 0 is 0 (on the plane, kept): a
+// polygon edge lying along the plane (a box face's edge over a triangle's
+// edge: a box on a grid whose cells it covers) has values of rounding noise
+// of either sign, and clipping at their ratio put a point mid-edge in place
+// of a corner. Each vertex's value is computed once, first: a polygon with
+// no vertex beyond the plane (most of a triangle's sides against the box's
+// face, on a floor) is kept as it is, where the clipping loop copied every
+// vertex to the other buffer and added none.
+void clipPolygon(Polygon& poly, const Vec3& plane, double offset, double noise) {
+  const int count = poly.count;
+  double d[9];
+  bool beyond = false;
+  for (int i = 0; i < count; ++i) {
+    const double x = plane.dot(poly.pts[i]) + offset;
+    d[i] = std::abs(x) <= noise ? 0.0 : x;
+    beyond |= d[i] < 0.0;
+  }
+  if (!beyond) return;
+  const Vec3* in = poly.pts;
+  Vec3* out = poly.spare();
+  int n = 0;
+  for (int i = 0; i < count; ++i) {
+    const int next = i + 1 == count ? 0 : i + 1;
+    const Vec3& a = in[i];
+    const double da = d[i], db = d[next];
+    if (da >= 0.0) out[n++] = a;
+    // Only a strict crossing adds a point: an end on the plane (0) is that
+    // point already, kept as a or as the next edge's a. (Added again, a
+    // corner of the box over a mesh vertex came out twice, and the two
+    // copies took two of a patch's four places from a real corner.)
+    if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) out[n++] = a + (da / (da - db)) * (in[next] - a);
+  }
+  poly.pts = out;
+  poly.count = n;
+}
+
 // Where the filter should meet a triangle that the box enters without
 // owning s, and which of its features that is. The box's lower envelope phi
 // (its lowest height over each point x of the plane) is convex, and minimal
@@ -412,9 +417,7 @@ bool envelopeMinimum(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3
     }
     poly.count = 4;
     for (int q = 0; q < 3 && poly.count > 0; ++q) {
-      Vec3* out = poly.spare();
-      poly.count = clipPolygon(poly.pts, poly.count, m[q], -m[q].dot(v[q]), flat * m[q].norm(), out);
-      poly.pts = out;
+      clipPolygon(poly, m[q], -m[q].dot(v[q]), flat * m[q].norm());
     }
     for (int c = 0; c < poly.count; ++c) {
       const Vec3& a = poly.pts[c];
@@ -456,9 +459,7 @@ void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e
   }
   poly.count = 4;
   for (int s = 0; s < 3 && poly.count > 0; ++s) {  // inward edge planes of the triangle
-    Vec3* out = poly.spare();
-    poly.count = clipPolygon(poly.pts, poly.count, m[s], -m[s].dot(v[s]), flat * m[s].norm(), out);
-    poly.pts = out;
+    clipPolygon(poly, m[s], -m[s].dot(v[s]), flat * m[s].norm());
   }
   for (int c = 0; c < poly.count; ++c) poly.depth[c] = n.dot(v[0] - poly.pts[c]);
 }
@@ -473,9 +474,7 @@ void referenceFace(const Vec3 v[3], int i, double s, const Vec3& e, double flat,
   for (int side = 0; side < 4 && poly.count > 0; ++side) {
     const int j = (i + 1 + side / 2) % 3;
     const double sgn = side % 2 == 0 ? -1.0 : 1.0;  // keep sgn * x_j + e_j >= 0
-    Vec3* out = poly.spare();
-    poly.count = clipPolygon(poly.pts, poly.count, sgn * Vec3::Unit(j), e[j], flat, out);
-    poly.pts = out;
+    clipPolygon(poly, sgn * Vec3::Unit(j), e[j], flat);
   }
   for (int c = 0; c < poly.count; ++c) {
     poly.depth[c] = e[i] + s * poly.pts[c][i];

@@ -8,6 +8,7 @@
 #include "meshcontact/status.h"
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace meshcontact::detail {
@@ -37,6 +38,8 @@ struct ManifoldScratch {
   std::vector<Vec3> points;
   std::vector<double> depths;
   std::vector<std::uint8_t> kept;
+  double cos_angle_deg = std::numeric_limits<double>::quiet_NaN();  // cos_tolerance is its cosine
+  double cos_tolerance = 0.0;
 };
 
 /// Checks manifold_angle_deg (finite, in [0, 90)).
