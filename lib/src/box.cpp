@@ -408,7 +408,7 @@ bool envelopeMinimum(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3
   for (int i = 0; i < 3; ++i) {
     if (!(std::abs(n[i]) > 1e-12)) continue;  // its shadow has no area
     const int j = (i + 1) % 3, k = (i + 2) % 3;
-    const double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};
+    static constexpr double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};
     Polygon poly;
     for (int c = 0; c < 4; ++c) {
       poly.pts[c][i] = n[i] > 0.0 ? -e[i] : e[i];
@@ -450,7 +450,7 @@ void incidentFace(const Vec3 v[3], const Vec3& n, const Vec3 m[3], const Vec3& e
     if (std::abs(n[k]) > std::abs(n[i])) i = k;
   const int j = (i + 1) % 3, k = (i + 2) % 3;
   const double xi = n[i] > 0.0 ? -e[i] : e[i];
-  const double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};
+  static constexpr double sj[4] = {1, -1, -1, 1}, sk[4] = {1, 1, -1, -1};  // not rebuilt on the stack per call
   poly.pts = poly.buffer[0];
   for (int c = 0; c < 4; ++c) {
     poly.pts[c][i] = xi;
