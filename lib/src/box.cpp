@@ -333,8 +333,9 @@ Feature maskFeature(int mask) {
 // Up to 9 points of a manifold under construction (a quad clipped by 3
 // planes, or a triangle by 4, has at most 7 vertices; one more is appended).
 struct Polygon {
-  Vec3 buffer[2][9];
-  double depth[9];
+  static constexpr int kCapacity = 9;
+  Vec3 buffer[2][kCapacity];
+  double depth[kCapacity];
   Vec3* pts = buffer[0];
   int count = 0;
   Vec3* spare() { return pts == buffer[0] ? buffer[1] : buffer[0]; }
@@ -351,7 +352,7 @@ struct Polygon {
 // vertex to the other buffer and added none.
 void clipPolygon(Polygon& poly, const Vec3& plane, double offset, double noise) {
   const int count = poly.count;
-  double d[9];
+  double d[Polygon::kCapacity];
   bool beyond = false;
   for (int i = 0; i < count; ++i) {
     const double x = plane.dot(poly.pts[i]) + offset;
