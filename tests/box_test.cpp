@@ -517,6 +517,84 @@ TEST(BoxFigures, AtAStepsFootNotPoppedUp) {
   }
 }
 
+// The same box at the foot of a 0.03 curb, sunk 0.005 or 0.01 into the
+// lower floor and pressed 0.02 into the curb's wall, at 361 yaws: pushed
+// out of the wall (+x), never up onto the curb. The curb's triangles over
+// the box's corner are 0.035-0.04 deep; the side face's axis, 0.02, clears
+// the curb, whose surface ends at the wall. While the curb's triangles kept
+// their face contacts unless a side face's axis needed less than half
+// their push, the box was popped up onto the curb at 184 of the 361 yaws.
+TEST(BoxFigures, AtALowCurbsFootPushedOutSideways) {
+  const TriangleMesh mesh = testing::buildMesh(scenes::step(2.0, 0.03, 0.25, 11));
+  const Vec3 e(0.35793355432284102, 0.24813163079242739, 0.40610893294049166);
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const double sink : {0.005, 0.01}) {
+    for (int i = 0; i <= 360; ++i) {
+      const double yaw = 2 * M_PI * i / 360;
+      const Mat3 r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+      const Vec3 reach = r.cwiseAbs() * e;
+      const Pose pose = poseFrom(r, Vec3(reach.x() - 0.02, -0.19787124992668759, reach.z() - sink));
+      ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+      bool out_of_the_wall = false;
+      for (const Contact& c : contacts) {
+        if (angleDeg(c.normal, Vec3::UnitZ()) < 1e-6) {
+          EXPECT_LE(c.depth, sink + 1e-9) << "sink " << sink << ", yaw " << yaw << ": popped up onto the curb";
+        } else if (angleDeg(c.normal, Vec3::UnitX()) < 1e-6) {
+          out_of_the_wall = true;
+          EXPECT_LE(c.depth, 0.02 + 1e-9) << "sink " << sink << ", yaw " << yaw;
+        } else {
+          ADD_FAILURE() << "sink " << sink << ", yaw " << yaw << ": normal " << str(c.normal);
+        }
+      }
+      EXPECT_TRUE(out_of_the_wall) << "sink " << sink << ", yaw " << yaw;
+    }
+  }
+}
+
+// A box corner down in a tessellated floor, sinking into two triangles, of
+// which the caller names one (FCL's GST_INDEP solver's list at this pose,
+// tests/fcl): given as partial, the face contact stands. As complete, the
+// lone triangle would look like a plate whose edge a side face's axis
+// clears, and that axis pushed the box off it 43 degrees from the floor's
+// normal. With both triangles (complete), the floor's normal too.
+TEST(BoxFigures, PartialCandidatesKeepTheFaceContact) {
+  const SceneMesh floor = scenes::flatFloor(8, 8, 0.5, 41);
+  Mat3 r;
+  r << 0.55481646907572135, -0.83116994060419946, -0.036540600410513047,  //
+      0.49846368035316901, 0.36725380161200905, -0.78527613268855989,     //
+      0.66611759097859213, 0.41746996902476552, 0.6180664850575045;
+  const Pose pose = poseFrom(r, Vec3(0.93479886274175417, 1.7432422843086037, 0.32773943054550359));
+  const Box box{Vec3(0.3, 0.2, 0.125)};
+  const auto candidate = [&](std::uint32_t t) {
+    CandidateTriangle c;
+    c.triangle = t;
+    for (int k = 0; k < 3; ++k) {
+      c.keys[k] = floor.indices[3 * t + k];
+      c.vertices[k] = floor.vertex(floor.indices[3 * t + k]);
+    }
+    return c;
+  };
+  const std::vector<CandidateTriangle> named = {candidate(50)};
+  const std::vector<CandidateTriangle> both = {candidate(50), candidate(51)};
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const auto& [candidates, coverage] : {std::pair{named, CandidateCoverage::kPartial},
+                                             std::pair{both, CandidateCoverage::kComplete}}) {
+    ASSERT_TRUE(collideBoxCandidates(box, pose, candidates.data(), candidates.size(), QuerySettings(), scratch,
+                                     contacts, coverage)
+                    .isOk());
+    ASSERT_FALSE(contacts.empty()) << candidates.size() << " candidates";
+    for (const Contact& c : contacts)
+      EXPECT_LT(angleDeg(c.normal, Vec3::UnitZ()), 1e-6) << candidates.size() << " candidates: " << str(c.normal);
+  }
+  const Status bad = collideBoxCandidates(box, pose, named.data(), named.size(), QuerySettings(), scratch, contacts,
+                                          static_cast<CandidateCoverage>(7));
+  EXPECT_EQ(bad.code(), ErrorCode::kInvalidSettings);
+  EXPECT_NE(bad.message().find("coverage"), std::string::npos) << bad.message();
+  EXPECT_TRUE(contacts.empty());
+}
+
 TEST(BoxFigures, VGroove) {
   // 30-degree slopes: left (x < 0) normal (sin30, 0, cos30), right (-sin30, 0, cos30).
   const SceneMesh m = scenes::vGroove(2.0, 30.0, 0.25, 9);

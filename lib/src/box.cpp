@@ -51,7 +51,7 @@
 //     deepest point. (Closed, not strict: s exactly on an internal edge makes
 //     both neighbours owners, both with the plane's normal, where a strict
 //     test would leave the edge to step 5 on both sides.) Unless one of step
-//     5's tilted axes needs less than half that push: then the owner's
+//     5's tilted axes needs less push (by step 5's bias): then the owner's
 //     patch is step 5's, ranked by s's depth (so first), with the face patch
 //     as its stand-in (below). A box tilted by 1e-4 rad beside a plate's
 //     edge, its deepest corner under the plate: the owner's face contact
@@ -64,8 +64,20 @@
 //     later axis must beat the current one by 5% of |pen| plus 1e-6 of the
 //     box's size (Box2D's reference-face bias, Gregorius' "Robust Contact
 //     Creation"). For n the penetration is its exact directional depth (the
-//     box's deepest point over the triangle, not the SAT overlap), and when
-//     that point lies inside the prism the bias is 50% (kInteriorFaceBias).
+//     box's deepest point over the triangle, not the SAT overlap). When
+//     that point lies inside the prism and the candidates are only some of
+//     the triangles the box touches (CandidateCoverage::kPartial: another
+//     engine's contact list), the bias is 50% (kPartialCoverageFaceBias):
+//     the filter's plane test (below) can tell where the surface goes on
+//     only from the triangles it is given. A lone triangle under a box's
+//     corner, its neighbours missing from FCL's list, looked like a plate
+//     of one triangle, and a side face's axis pushed the box off it
+//     sideways (42 degrees off the floor's normal). With every triangle
+//     the box touches (the core's own midphase), the plane test decides:
+//     with the 50% bias there, a box sunk 0.005-0.01 at the foot of a 0.03
+//     curb, pressed 0.02 into it, was popped up onto the curb at 184 of
+//     361 yaws (the curb's triangles over its corner kept their face
+//     contacts, 0.035-0.04 deep).
 //     Manifold (points on the box, depths along N):
 //     - N = n: the incident face clipped to the prism, plus the deepest
 //       point over the triangle; a face patch (n is the support feature);
@@ -133,7 +145,9 @@ Status checkBox(const Box& box, const Pose& pose) {
 // penetration is smaller by this fraction of |current| (plus 1e-6 of the
 // box's size).
 constexpr double kFaceBias = 0.05;
-constexpr double kInteriorFaceBias = 0.5;  // n, when the box is deepest over the face's interior
+// n's, when the box is deepest over the face's interior and the candidates
+// are partial (CandidateCoverage::kPartial; step 5).
+constexpr double kPartialCoverageFaceBias = 0.5;
 // A tilted axis may point below the triangle's plane by up to 15 degrees
 // (sin 15°): pushing along it still moves the box sideways much more than
 // through the plane. A box tilted by a little beside a plate's edge has its
@@ -579,6 +593,9 @@ struct BoxNarrowphase {
   double contact_distance;
   double scale;        // |e|: the box's size, for tolerances
   double flat_;        // round-off tolerance on lengths (see kFlat)
+  // n's bias when the box is deepest over the face's interior (step 5):
+  // kFaceBias, or kPartialCoverageFaceBias for partial candidates.
+  double interior_face_bias;
 
   // How far apart a pair may be and still be in contact: the contact
   // distance plus round-off. A box lying exactly on a tessellated plane is
@@ -867,9 +884,9 @@ struct BoxNarrowphase {
     // anywhere) overstates the push needed when the box's deepest part is not
     // over this triangle. The owner's is s's depth, and interior (the
     // box's deepest point lies over the triangle): its face contact stands
-    // unless a tilted axis needs less than half the push (step 4).
+    // unless a tilted axis needs less push, by the interior bias (step 4).
     if (owned && !tiltedAxisMayBeCheaper(axes, axis_count, n,
-                                         (1.0 - kInteriorFaceBias) * (thickness - centre_height) - 1e-6 * scale))
+                                         (1.0 - interior_face_bias) * (thickness - centre_height) - 1e-6 * scale))
       return own();
     DeepestOver over;
     if (owned) {
@@ -885,12 +902,14 @@ struct BoxNarrowphase {
       double pen;
       int kind, box_axis, edge;
     } best{n, n_depth > -kInf ? n_depth : kInf, 0, 0, 0};
-    // The deepest point over the triangle strictly inside the prism: the box
-    // enters through the face, so n is kept unless another axis needs less
-    // than half the push (near an internal edge the per-triangle overlap
-    // along a tilted axis is often smaller only because the triangle ends).
+    // The deepest point over the triangle strictly inside the prism: near an
+    // internal edge the per-triangle overlap along a tilted axis is often
+    // smaller only because the triangle ends. The filter's plane test tells
+    // that from the surface ending (a ledge's edge), given the triangles
+    // around; with partial candidates it cannot, and n is kept unless
+    // another axis needs less than half the push.
     const bool interior = std::isfinite(best.pen) && over.mask == 0;
-    const double n_bias = interior ? kInteriorFaceBias : kFaceBias;
+    const double n_bias = interior ? interior_face_bias : kFaceBias;
     // Every axis's length, slope along n and pushes, first, in a loop with
     // no branch: its square roots and divisions overlap in the pipeline,
     // where the choice below (data-dependent branches) left each waiting on
@@ -1030,23 +1049,34 @@ Status checkQuery(const Box& box, const Pose& pose, const QuerySettings& setting
   return detail::checkManifoldSettings(settings);
 }
 
-BoxNarrowphase makeNarrowphase(const Box& box, const Pose& pose, const QuerySettings& settings) {
+BoxNarrowphase makeNarrowphase(const Box& box, const Pose& pose, const QuerySettings& settings,
+                               CandidateCoverage coverage) {
   const double scale = box.half_extents.norm();
   return {pose, box.half_extents, settings.contact_distance, scale,
-          kFlat * (scale + pose.translation.cwiseAbs().maxCoeff())};
+          kFlat * (scale + pose.translation.cwiseAbs().maxCoeff()),
+          coverage == CandidateCoverage::kPartial ? kPartialCoverageFaceBias : kFaceBias};
 }
 
 }  // namespace
 
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
                             const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts) {
+  return collideBoxCandidates(box, pose, candidates, count, settings, scratch, contacts, CandidateCoverage::kComplete);
+}
+
+Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
+                            const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts,
+                            CandidateCoverage coverage) {
   contacts.clear();
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
+  if (coverage != CandidateCoverage::kComplete && coverage != CandidateCoverage::kPartial)
+    return {ErrorCode::kInvalidSettings,
+            "candidate coverage " + std::to_string(static_cast<int>(coverage)) + " is none of CandidateCoverage's"};
   s = detail::checkCandidates(candidates, count);
   if (!s) return s;
-  detail::manifoldContacts(makeNarrowphase(box, pose, settings), candidates, count, settings,
+  detail::manifoldContacts(makeNarrowphase(box, pose, settings, coverage), candidates, count, settings,
                            detail::candidateIdentity(settings), scratch, contacts);
   return Status::ok();
 }
@@ -1057,7 +1087,7 @@ Status collideBox(const MeshInstance* instances, std::size_t count, const Box& b
   if (settings.trace) settings.trace->clear();
   Status s = checkQuery(box, pose, settings);
   if (!s) return s;
-  const BoxNarrowphase narrowphase = makeNarrowphase(box, pose, settings);
+  const BoxNarrowphase narrowphase = makeNarrowphase(box, pose, settings, CandidateCoverage::kComplete);
   QueryScratch::Impl& sc = scratch.impl();
   // The rotated box's bounds, inflated by the narrowphase's reach (the
   // contact distance and round-off): a box set down exactly on a floor at

@@ -127,14 +127,15 @@ TEST(OdeRolling, BoxSlidesLikeOnAPlane) {
 // contacts were 3 points in one corner; and a triangle whose piece of the
 // bottom face had more than 4 vertices reduced it to 4 without the corner
 // it held, so the manifold lost that corner for a clip point up to 6 cm
-// inside. Exactly touching: every placement must give the corners. Sunk
-// (1e-5 .. 1e-3 m, tilted up to 1e-3 rad): one known case remains, counted
-// and bounded here, not hidden: a triangle holding a corner while it
-// overlaps the box sideways by less than half the depth takes a side face's
-// axis (box.cpp step 5), its patch becomes an edge contact that the filter
-// voids, and the manifold's point for that corner is a neighbour's clip
-// point (measured: 5 placements in 3,000, off by up to 1.05 mm). Fixing it would
-// give the box's step-5 patches a face part, as the capsule's have.
+// inside. Every placement must give the corners, exactly touching or sunk
+// (1e-5 .. 1e-3 m, tilted up to 1e-3 rad). A third way this failed, once
+// counted here and allowed for: a triangle holding a corner while it
+// overlapped the box sideways by less than half the depth took a side
+// face's axis (box.cpp step 5), its patch became an edge contact that the
+// filter voided, and the manifold's point for that corner was a
+// neighbour's clip point (5 placements in 3,000, off by up to 1.05 mm).
+// Such a patch's face part now stands in where the floor goes on
+// (voided_features.h), and none of the 3,000 is off.
 TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
   const scenes::SceneMesh floor = scenes::flatFloor(26, 8, kCell, kSeed);
   TriangleMesh mesh;
@@ -144,8 +145,7 @@ TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
   scenes::Rng rng(11);
   const Vec3 e(0.25, 0.25, 0.25);
   const int n = testing::scaled(4000);
-  int failures = 0, sunk = 0, off_corner = 0;
-  double worst_off = 0.0;
+  int failures = 0, sunk = 0;
   for (int i = 0; i < n && failures < 5; ++i) {
     const bool touching = i % 4 == 0;  // exactly: the bottom face at z = 0 to the last bit
     const double yaw = rng.uniform(0.0, 2.0 * M_PI);
@@ -185,14 +185,7 @@ TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
     bool normals = true;
     for (const Contact& c : contacts) normals = normals && 1.0 - c.normal.z() <= 1e-12;
     const bool at_corners = worst <= 1e-9 && matched[0] && matched[1] && matched[2] && matched[3];
-    if (!touching) {
-      ++sunk;
-      if (!at_corners && contacts.size() == 4 && normals) {  // the known case above
-        ++off_corner;
-        worst_off = std::max(worst_off, worst);
-        continue;
-      }
-    }
+    sunk += !touching;
     const bool ok = contacts.size() == 4 && normals && at_corners;
     if (!ok) {
       ++failures;
@@ -206,9 +199,7 @@ TEST(OdeRolling, CoreBoxLyingOnTheFloorGetsItsFourCorners) {
                     << contacts.size() << " contacts, worst corner mismatch " << worst << ";" << got;
     }
   }
-  std::printf("| core box lying on the floor | %d sunk placements | %d with a contact off its corner (worst %.3g m) |\n",
-              sunk, off_corner, worst_off);
-  EXPECT_LE(off_corner, sunk / 200) << "worst " << worst_off << " m";
+  EXPECT_GT(sunk, n / 2);
 }
 
 // The contacts themselves, step by step along the override's slide: the

@@ -139,10 +139,13 @@ struct SupportStorage {
 const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage);
 
 /// The core's query for this shape on candidates (query frame), `pose`
-/// placing the shape in the query frame.
+/// placing the shape in the query frame. `coverage`: kPartial where the
+/// candidates are FCL's colliding triangles (postFilter), not every
+/// triangle near the shape (the box's query depends on it).
 Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                          std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                         std::vector<Contact>& contacts);
+                         std::vector<Contact>& contacts,
+                         CandidateCoverage coverage = CandidateCoverage::kComplete);
 
 /// FCL's (sharp) shape's farthest point along unit `direction` (query
 /// frame): the true surface, never the core's rounded one (a CylinderShape's

@@ -162,9 +162,11 @@ Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjec
     s = filterPatches(sc.gathered.data(), sc.gathered_patches.data(), sc.gathered.size(), shape.size,
                       options.settings, sc.query, sc.contacts);
   } else {
-    // meshcontact's narrowphase (and filter) on exactly the triangles FCL named.
+    // meshcontact's narrowphase (and filter) on exactly the triangles FCL
+    // named: some of those the shape touches (GST_INDEP names one of the
+    // two a box's corner sinks into).
     s = detail::collideCandidates(shape, shape_in_model, sc.gathered.data(), sc.gathered.size(), options.settings,
-                                  sc.query, sc.contacts);
+                                  sc.query, sc.contacts, CandidateCoverage::kPartial);
   }
   if (!s) return s;
   rep.contacts = sc.contacts.size();

@@ -298,7 +298,7 @@ const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage
 
 Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                          std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                         std::vector<Contact>& contacts) {
+                         std::vector<Contact>& contacts, CandidateCoverage coverage) {
   switch (shape.kind) {
     case ShapeKind::kSphere:
       // FCL's sphere is centred on its frame's origin; the core's sphere
@@ -310,7 +310,8 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
       return collideCapsuleCandidates(Capsule{shape.radius, shape.half_length}, pose, candidates, count, settings,
                                       scratch, contacts);
     case ShapeKind::kBox:
-      return collideBoxCandidates(Box{shape.half_extents}, pose, candidates, count, settings, scratch, contacts);
+      return collideBoxCandidates(Box{shape.half_extents}, pose, candidates, count, settings, scratch, contacts,
+                                  coverage);
     case ShapeKind::kCylinder:
     case ShapeKind::kCone:
     case ShapeKind::kEllipsoid:

@@ -14,6 +14,7 @@
 #include "meshcontact/query.h"
 #include "meshcontact/status.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace meshcontact {
@@ -76,6 +77,20 @@ Status collideCapsule(const TriangleMesh& mesh, const Capsule& capsule, const Po
 Status collideCapsule(const MeshInstance* instances, std::size_t count, const Capsule& capsule, const Pose& pose,
                       const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
 
+/// Which triangles a caller's candidates hold (collideBoxCandidates).
+enum class CandidateCoverage : std::uint8_t {
+  /// Every triangle the shape may touch within the contact distance (those
+  /// of gatherCandidates on bounds that contain the shape): the box's plane
+  /// test (below) can tell where a surface goes on from them.
+  kComplete,
+  /// Only some of those (another engine's list of colliding triangles,
+  /// which may leave out a neighbour the box also penetrates): a triangle
+  /// under the box's deepest point keeps its face contact unless a sideways
+  /// axis needs less than half its push, as a lone triangle of a floor
+  /// looks like the end of the surface.
+  kPartial,
+};
+
 /// Box vs each candidate. One-sided, the sphere's rule applied to the box's
 /// centre (its core): a triangle is culled when the box's centre is behind
 /// its plane, even if the box overlaps it (a box beside a cliff's wall with
@@ -88,9 +103,10 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
 /// triangle instead (a box hovering within the contact distance keeps its
 /// corners). Penetrating: the triangle under the box's deepest point below
 /// its plane owns a face contact (normal = triangle normal, depth = that
-/// point's depth) unless a sideways axis needs less than half that push;
-/// others get the separating axis of least penetration (separating axes:
-/// triangle normal, 3 box faces, 9 edge-edge crosses; face axes preferred;
+/// point's depth) unless a sideways axis needs less push (5% less; half,
+/// with CandidateCoverage::kPartial); others get the separating axis of
+/// least penetration (separating axes: triangle normal, 3 box faces, 9
+/// edge-edge crosses; face axes preferred;
 /// no normal more than 15 degrees into the triangle's back). A sideways
 /// contact is replaced by the triangle's face contact where the surface
 /// goes on (no sideways axis clears the query's triangles of that plane
@@ -100,9 +116,16 @@ Status collideCapsule(const MeshInstance* instances, std::size_t count, const Ca
 /// face over each triangle, and a box tilted beside a plate's edge is
 /// pushed off sideways, not up onto the plate. Up to 4 points per triangle
 /// by clipping (a box lying flat on a tessellated floor ends with 4 after
-/// the manifold reduction). See box.cpp for the details.
+/// the manifold reduction). See box.cpp for the details. A box sunk at the
+/// foot of a low curb and pressed into it is pushed out of the curb
+/// sideways, not up onto it. Without `coverage`, the candidates are
+/// CandidateCoverage::kComplete. Errors as collideBox, and kInvalidSettings
+/// for a coverage none of CandidateCoverage's.
 Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
                             const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts);
+Status collideBoxCandidates(const Box& box, const Pose& pose, const CandidateTriangle* candidates, std::size_t count,
+                            const QuerySettings& settings, QueryScratch& scratch, std::vector<Contact>& contacts,
+                            CandidateCoverage coverage);
 Status collideBox(const TriangleMesh& mesh, const Box& box, const Pose& pose, const QuerySettings& settings,
                   QueryScratch& scratch, std::vector<Contact>& contacts);
 Status collideBox(const MeshInstance* instances, std::size_t count, const Box& box, const Pose& pose,
