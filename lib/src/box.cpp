@@ -72,7 +72,7 @@
 //     only from the triangles it is given. A lone triangle under a box's
 //     corner, its neighbours missing from FCL's list, looked like a plate
 //     of one triangle, and a side face's axis pushed the box off it
-//     sideways (42 degrees off the floor's normal). With every triangle
+//     sideways (43 degrees off the floor's normal). With every triangle
 //     the box touches (the core's own midphase), the plane test decides:
 //     with the 50% bias there, a box sunk 0.005-0.01 at the foot of a 0.03
 //     curb, pressed 0.02 into it, was popped up onto the curb at 184 of
