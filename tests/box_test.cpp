@@ -406,6 +406,44 @@ TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
   }
 }
 
+// The same plate, the box yawed by up to 0.6 rad and tilted by up to 0.05:
+// never pushed up onto the plate (a contact within 30 degrees of its normal
+// deeper than the box reaches over the edge). The push that clears the
+// plate along a yawed side face's axis counted the plate's edge far along
+// it, beyond the box (0.016 further out along the axis at 0.5 m and a yaw
+// of 0.03 rad), so the face part stood in for the side face's patch: 19
+// and 15 of 1,000 placements popped at tilts up to 0.01 and 0.05.
+TEST(BoxFigures, YawedBesideAPlatesEdgeNotPoppedUp) {
+  SceneMesh plate = scenes::flatFloor(8, 8, 0.5, 3);
+  for (std::size_t v = 0; v < plate.vertexCount(); ++v) {
+    plate.vertices[3 * v] -= 4;
+    plate.vertices[3 * v + 1] -= 2;
+  }
+  const TriangleMesh mesh = testing::buildMesh(plate);
+  for (const double max_tilt : {0.01, 0.05}) {
+    scenes::Rng rng(31);
+    QueryScratch scratch;
+    std::vector<Contact> contacts;
+    int touching = 0;
+    for (int i = 0; i < 1000; ++i) {
+      const Vec3 e = rng.uniformVector(Vec3(0.1, 0.1, 0.2), Vec3(0.4, 0.4, 1.0));
+      const double tilt = rng.uniform(0, max_tilt), yaw = rng.uniform(-0.6, 0.6);
+      const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(i), std::sin(i), 0)).toRotationMatrix() *
+                     Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+      const Vec3 reach = r.cwiseAbs() * e;
+      const double w = rng.uniform(0.001, 0.03);
+      const Pose pose = poseFrom(r, Vec3(reach.x() - w, rng.uniform(-1, 1), reach.z() - 0.15));
+      ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+      touching += !contacts.empty();
+      for (const Contact& c : contacts)
+        EXPECT_FALSE(angleDeg(c.normal, Vec3::UnitZ()) < 30.0 && c.depth > w + 1e-5)
+            << "tilt up to " << max_tilt << ", placement " << i << ": popped up, normal " << str(c.normal)
+            << " depth " << c.depth << " (reaching " << w << " over the edge)";
+    }
+    EXPECT_GT(touching, 700) << "tilt up to " << max_tilt;  // the figure is the one meant
+  }
+}
+
 // The cliff figure's other two places, tilted by up to 0.05 rad and yawed by
 // up to 0.2: resting on the upper floor overhanging the edge, and on the
 // lower floor pressed into the wall, sunk 0.02 (and, within a contact

@@ -377,8 +377,10 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 /// connected to it through shared edges between triangles whose normals
 /// agree to kStandInCosine. Along a tilted unit axis L, a push of
 /// max L.w - (the shape's least value along L) clears the piece (w over
-/// the vertices of its open edges, those no other triangle of the piece
-/// holds: a linear function is greatest on a region's boundary); L is
+/// its open edges, those no other triangle of the piece holds: a linear
+/// function is greatest on a region's boundary; only their parts within the
+/// shape's extent across L, in the piece's plane, which the shape meets
+/// when it moves along L); L is
 /// cheap when that is less than the patch's face push (Patch::face_push:
 /// the push along the face's normal, less the bias toward it) and the
 /// shape reaches beyond the piece along L (it overhangs the piece's end
@@ -397,9 +399,10 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 /// the plate: the face contacts of the triangles under that corner pushed it
 /// up onto the plate by its whole depth below it. A box sunk into a
 /// tessellated floor keeps its face contacts.) A patch whose own axis is not
-/// cheap while another is pushes along the surface, into the piece's
-/// triangles beyond it (a triangle touching a plate's edge at a vertex
-/// only, its least axis from an internal edge): dropped, and it voids
+/// cheap, or costs more than 5% above the least, while another is cheap
+/// pushes along the surface, into the piece's triangles beyond it (a
+/// triangle touching a plate's edge at a vertex only, its least axis from
+/// an internal edge), or out of it the long way: dropped, and it voids
 /// nothing, so that the patches whose axes are cheap are met as if it were
 /// not there. The narrowphase gives the shape's extent along an axis
 /// (extentAlong(axis, low, high), query frame).
@@ -474,14 +477,48 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
     return std::make_pair(lo, hi);
   };
   // The push that clears the piece along an axis, +infinity when the shape
-  // does not reach beyond the piece that way.
+  // does not reach beyond the piece that way. Only the open edges' parts
+  // within the shape's extent across the axis count (across = along
+  // M = n x axis, in the piece's plane of normal n): moving along the axis
+  // never brings the shape over the rest. (A box yawed by 0.03 rad beside a
+  // plate's edge: the edge's vertex 0.5 m along it, away from the box, lay
+  // 0.016 further out along the box's side face than the box's part under
+  // the plate, and the push that cleared it outweighed the face's.)
   const auto push = [&](std::uint32_t piece, const Vec3& axis) {
-    double reach = -kInf;
+    const Vec3 across = s.entered_normals[piece].cross(axis);
+    const double across_length = across.norm();
+    double across_low = -kInf, across_high = kInf;
+    Vec3 m = Vec3::Zero();
+    if (across_length > 1e-6) {
+      m = across / across_length;
+      narrowphase.extentAlong(m, across_low, across_high);
+      const double slack = 1e-9 * (across_high - across_low) + 1e-12 * (std::abs(across_low) + std::abs(across_high));
+      across_low -= slack;
+      across_high += slack;
+    }
+    // Without an open edge across the shape (a piece within the contact
+    // distance beside it), all of them count, as before the clipping.
+    double reach = -kInf, reach_all = -kInf;
     const auto edges = range(s.open_edges, piece, [](const FilterScratch::PieceEdge& e) { return e.piece; });
     for (auto e = edges.first; e != edges.second; ++e) {
       const Vec3* w = candidates[s.patch_candidate[e->triangle]].vertices;
-      reach = std::max({reach, axis.dot(w[e->edge]), axis.dot(w[(e->edge + 1) % 3])});
+      const Vec3& a = w[e->edge];
+      const Vec3& b = w[(e->edge + 1) % 3];
+      const double la = axis.dot(a), lb = axis.dot(b);
+      reach_all = std::max({reach_all, la, lb});
+      const double ma = m.dot(a), mb = m.dot(b);
+      double ta = 0.0, tb = 1.0;  // the part of a->b within [across_low, across_high]
+      if (ma != mb) {
+        const double t_low = (across_low - ma) / (mb - ma), t_high = (across_high - ma) / (mb - ma);
+        ta = std::max(0.0, std::min(t_low, t_high));
+        tb = std::min(1.0, std::max(t_low, t_high));
+      } else if (ma < across_low || ma > across_high) {
+        continue;
+      }
+      if (ta > tb) continue;
+      reach = std::max({reach, la + ta * (lb - la), la + tb * (lb - la)});
     }
+    if (reach == -kInf) reach = reach_all;
     double low, high;
     narrowphase.extentAlong(axis, low, high);
     return high - reach > 1e-9 * (high - low) ? reach - low : kInf;
@@ -489,10 +526,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
   for (const std::uint32_t patch : s.piece_axes) {
     Patch& p = s.patches[patch];
     const std::uint32_t piece = find(patch);
-    if (push(piece, p.normal) < p.face_push) {
-      p.plane_push = PlanePush::kOwn;
-      continue;
-    }
+    const double own = push(piece, p.normal);
     double& least = s.piece_least_push[piece];
     if (std::isnan(least)) {
       least = kInf;
@@ -511,7 +545,13 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
         least = std::min(least, push(piece, out));
       }
     }
-    p.plane_push = least < p.face_push ? PlanePush::kNone : PlanePush::kFace;
+    // The patch's own axis stands when it is cheap and within 5% of the
+    // cheapest (a box yawed by 41 degrees at a curb's foot: its side face's
+    // axis clears the curb, the axis out across the curb's edge for less).
+    if (own < p.face_push && own - least <= 0.05 * std::abs(least))
+      p.plane_push = PlanePush::kOwn;
+    else
+      p.plane_push = least < p.face_push ? PlanePush::kNone : PlanePush::kFace;
   }
 }
 
