@@ -28,6 +28,38 @@ Pose poseFrom(const Mat3& r, const Vec3& t) {
   return p;
 }
 
+// A tessellated plate (8 x 8 cells of 0.5 m) ending at x = 0: x in [-4, 0],
+// y in [-2, 2], z = 0, normal +z.
+SceneMesh plateEndingAtXZero() {
+  SceneMesh plate = scenes::flatFloor(8, 8, 0.5, 3);
+  for (std::size_t v = 0; v < plate.vertexCount(); ++v) {
+    plate.vertices[3 * v] -= 4;
+    plate.vertices[3 * v + 1] -= 2;
+  }
+  return plate;
+}
+
+// A box beside an edge along y at x = 0, whose top is at z = top: half
+// extents 0.1-0.4 x 0.1-0.4 x 0.2-1.0, yawed by up to max_yaw, then tilted
+// by up to max_tilt about a horizontal axis set by i, reaching w (0.001-0.03)
+// over the edge (x < 0), its lowest point 0.15 below the top, y in [-1, 1].
+struct BoxBesideAnEdge {
+  Vec3 e;
+  double w;
+  Pose pose;
+};
+BoxBesideAnEdge boxBesideAnEdge(scenes::Rng& rng, int i, double max_tilt, double max_yaw, double top) {
+  BoxBesideAnEdge b;
+  b.e = rng.uniformVector(Vec3(0.1, 0.1, 0.2), Vec3(0.4, 0.4, 1.0));
+  const double tilt = rng.uniform(0, max_tilt), yaw = rng.uniform(-max_yaw, max_yaw);
+  const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(i), std::sin(i), 0)).toRotationMatrix() *
+                 Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 reach = r.cwiseAbs() * b.e;
+  b.w = rng.uniform(0.001, 0.03);
+  b.pose = poseFrom(r, Vec3(reach.x() - b.w, rng.uniform(-1, 1), top + reach.z() - 0.15));
+  return b;
+}
+
 // Independent closest point on a triangle (projection, else nearest edge).
 Vec3 refClosestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 n = (b - a).cross(c - a).normalized();
@@ -359,16 +391,11 @@ TEST(BoxFigures, Cliff) {
 // contact now pushes it out sideways, along the box's side face (within the
 // tilt: 2.3 degrees at most here), by no more than w.
 TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
-  SceneMesh plate = scenes::flatFloor(8, 8, 0.5, 3);
-  for (std::size_t v = 0; v < plate.vertexCount(); ++v) {
-    plate.vertices[3 * v] -= 4;
-    plate.vertices[3 * v + 1] -= 2;
-  }
   const struct {
     const char* name;
     SceneMesh mesh;
     double top;
-  } scenes_[] = {{"plate", plate, 0.0}, {"cliff", scenes::step(2.0, 1.0, 0.25, 8), 1.0}};
+  } scenes_[] = {{"plate", plateEndingAtXZero(), 0.0}, {"cliff", scenes::step(2.0, 1.0, 0.25, 8), 1.0}};
   for (const auto& scene : scenes_) {
     const TriangleMesh mesh = testing::buildMesh(scene.mesh);
     scenes::Rng rng(29);
@@ -376,13 +403,7 @@ TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
     std::vector<Contact> contacts;
     int touching = 0;
     for (int i = 0; i < 400; ++i) {
-      const Vec3 e = rng.uniformVector(Vec3(0.1, 0.1, 0.2), Vec3(0.4, 0.4, 1.0));
-      const double tilt = rng.uniform(0, 0.01), yaw = rng.uniform(-0.04, 0.04);
-      const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(i), std::sin(i), 0)).toRotationMatrix() *
-                     Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-      const Vec3 reach = r.cwiseAbs() * e;
-      const double w = rng.uniform(0.001, 0.03);
-      const Pose pose = poseFrom(r, Vec3(reach.x() - w, rng.uniform(-1, 1), scene.top + reach.z() - 0.15));
+      const auto [e, w, pose] = boxBesideAnEdge(rng, i, 0.01, 0.04, scene.top);
       ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
       const std::string config = std::string(scene.name) + ", placement " + std::to_string(i);
       // A corner under the top and over the edge (x < 0): the box is in the
@@ -414,25 +435,14 @@ TEST(BoxFigures, TiltedBesideAnEdgeIsPushedOffSideways) {
 // of 0.03 rad), so the face part stood in for the side face's patch: 19
 // and 15 of 1,000 placements popped at tilts up to 0.01 and 0.05.
 TEST(BoxFigures, YawedBesideAPlatesEdgeNotPoppedUp) {
-  SceneMesh plate = scenes::flatFloor(8, 8, 0.5, 3);
-  for (std::size_t v = 0; v < plate.vertexCount(); ++v) {
-    plate.vertices[3 * v] -= 4;
-    plate.vertices[3 * v + 1] -= 2;
-  }
-  const TriangleMesh mesh = testing::buildMesh(plate);
+  const TriangleMesh mesh = testing::buildMesh(plateEndingAtXZero());
   for (const double max_tilt : {0.01, 0.05}) {
     scenes::Rng rng(31);
     QueryScratch scratch;
     std::vector<Contact> contacts;
     int touching = 0;
     for (int i = 0; i < 1000; ++i) {
-      const Vec3 e = rng.uniformVector(Vec3(0.1, 0.1, 0.2), Vec3(0.4, 0.4, 1.0));
-      const double tilt = rng.uniform(0, max_tilt), yaw = rng.uniform(-0.6, 0.6);
-      const Mat3 r = Eigen::AngleAxisd(tilt, Vec3(std::cos(i), std::sin(i), 0)).toRotationMatrix() *
-                     Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-      const Vec3 reach = r.cwiseAbs() * e;
-      const double w = rng.uniform(0.001, 0.03);
-      const Pose pose = poseFrom(r, Vec3(reach.x() - w, rng.uniform(-1, 1), reach.z() - 0.15));
+      const auto [e, w, pose] = boxBesideAnEdge(rng, i, max_tilt, 0.6, 0.0);
       ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
       touching += !contacts.empty();
       for (const Contact& c : contacts)
