@@ -727,6 +727,26 @@ TEST(OdeConventions, CollideWithGroupRefusesBadArguments) {
   EXPECT_NE(ode::lastError().find("not handled"), std::string::npos) << ode::lastError();
   EXPECT_EQ(ode::collideWithGroup(reinterpret_cast<dGeomID>(space), pair, 2, 8, c, skip), 0);
   EXPECT_EQ(ode::statistics().errors, 9u);
+  // A repeated geom is named at the lowest index that repeats an earlier
+  // listing, with that geom's first listing; in a long list too (2,000
+  // trimesh geoms on one data, 5 m apart, two of them listed again).
+  const dGeomID repeats[] = {a.geom, b.geom, b.geom, a.geom};
+  EXPECT_EQ(ode::collideWithGroup(sphere, repeats, 4, 8, c, skip), 0);
+  EXPECT_NE(ode::lastError().find("trimesh 2 is trimesh 1 again"), std::string::npos) << ode::lastError();
+  std::vector<dGeomID> many(2000);
+  for (std::size_t i = 0; i < many.size(); ++i) {
+    many[i] = dCreateTriMesh(nullptr, a.data, nullptr, nullptr, nullptr);
+    dGeomSetPosition(many[i], 5.0 * static_cast<double>(i), 0, 0);
+  }
+  std::vector<dGeomID> listed = many;
+  listed[1800] = many[100];
+  listed[1500] = many[700];
+  EXPECT_EQ(ode::collideWithGroup(sphere, listed.data(), static_cast<int>(listed.size()), 8, c, skip), 0);
+  EXPECT_NE(ode::lastError().find("trimesh 1500 is trimesh 700 again"), std::string::npos) << ode::lastError();
+  EXPECT_GT(ode::collideWithGroup(sphere, many.data(), static_cast<int>(many.size()), 8, c, skip), 0)
+      << ode::lastError();
+  EXPECT_EQ(ode::statistics().errors, 11u);
+  for (dGeomID g : many) dGeomDestroy(g);
   dSpaceDestroy(space);
   dGeomDestroy(plane);
   dGeomDestroy(sphere);

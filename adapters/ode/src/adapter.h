@@ -190,6 +190,7 @@ struct ThreadContext {
   std::vector<Contact> contacts;
   std::vector<MeshInstance> instances;
   std::vector<dGeomID> instance_geoms;                   // geom of each instance
+  std::vector<std::pair<dGeomID, int>> listed;           // collideWithGroup's list, sorted by geom
   std::vector<std::uint32_t> chosen;
   std::vector<double> min_distance2;
   std::vector<TraceEntry> trace;

@@ -5,6 +5,7 @@
 #include "adapter.h"
 
 #include <algorithm>
+#include <functional>
 #include <string>
 
 namespace meshcontact::ode::detail {
@@ -232,11 +233,29 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
     if (dGeomGetClass(trimeshes[i]) != dTriMeshClass)
       return {ErrorCode::kInvalidSettings, "collideWithGroup: geom " + std::to_string(i) + " is of class " +
                                                std::to_string(dGeomGetClass(trimeshes[i])) + ", not a trimesh"};
-    for (int j = 0; j < i; ++j)
-      if (trimeshes[j] == trimeshes[i])
-        return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(i) +
-                                                 " is trimesh " + std::to_string(j) + " again"};
   }
+  // A geom listed twice: the list sorted by geom (then index) puts its
+  // listings side by side, where comparing each geom with every one before
+  // it was quadratic in a list that may hold every piece of a level.
+  // Reported at the lowest index that repeats an earlier listing, with the
+  // first listing of that geom.
+  ctx.listed.clear();
+  for (int i = 0; i < count; ++i) ctx.listed.emplace_back(trimeshes[i], i);
+  std::sort(ctx.listed.begin(), ctx.listed.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? std::less<dGeomID>()(a.first, b.first) : a.second < b.second;
+  });
+  int repeat = count, first = 0;
+  for (std::size_t k = 1, run = 0; k < ctx.listed.size(); ++k) {
+    if (ctx.listed[k].first != ctx.listed[run].first) {
+      run = k;
+    } else if (ctx.listed[k].second < repeat) {
+      repeat = ctx.listed[k].second;
+      first = ctx.listed[run].second;
+    }
+  }
+  if (repeat < count)
+    return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(repeat) + " is trimesh " +
+                                             std::to_string(first) + " again"};
   ctx.frame = geomPose(trimeshes[0]);
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
