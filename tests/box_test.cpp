@@ -544,18 +544,25 @@ TEST(BoxFigures, TiltedAtACliffOnlyItsPlanesNormals) {
 // triangles hold, clears it cheaply (popped at 14 of 361 yaws before that
 // axis was tried; at all 361 while the floor below, parallel to the ledge,
 // counted as the ledge's plane).
+// The upright box of the step figures, yawed by i degrees, sunk `sink` into
+// the lower floor and pressed 0.02 into the step's wall (x = 0).
+const Vec3 kStepFootBox(0.35793355432284102, 0.24813163079242739, 0.40610893294049166);
+Pose atTheStepsFoot(int i, double sink) {
+  const double yaw = 2 * M_PI * i / 360;
+  const Mat3 r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  const Vec3 reach = r.cwiseAbs() * kStepFootBox;
+  return poseFrom(r, Vec3(reach.x() - 0.02, -0.19787124992668759, reach.z() - sink));
+}
+
 TEST(BoxFigures, AtAStepsFootNotPoppedUp) {
   const TriangleMesh mesh = testing::buildMesh(scenes::step(2.0, 0.1, 0.25, 11));
-  const Vec3 e(0.35793355432284102, 0.24813163079242739, 0.40610893294049166);
   const double sink = 0.0347;
   QueryScratch scratch;
   std::vector<Contact> contacts;
   for (int i = 0; i <= 360; ++i) {
     const double yaw = 2 * M_PI * i / 360;
-    const Mat3 r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-    const Vec3 reach = r.cwiseAbs() * e;
-    const Pose pose = poseFrom(r, Vec3(reach.x() - 0.02, -0.19787124992668759, reach.z() - sink));
-    ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+    ASSERT_TRUE(
+        collideBox(mesh, Box{kStepFootBox}, atTheStepsFoot(i, sink), QuerySettings(), scratch, contacts).isOk());
     EXPECT_FALSE(contacts.empty()) << "yaw " << yaw;
     for (const Contact& c : contacts) {
       if (angleDeg(c.normal, Vec3::UnitZ()) < 1e-6) {
@@ -574,16 +581,13 @@ TEST(BoxFigures, AtAStepsFootNotPoppedUp) {
 // their push, the box was popped up onto the curb at 184 of the 361 yaws.
 TEST(BoxFigures, AtALowCurbsFootPushedOutSideways) {
   const TriangleMesh mesh = testing::buildMesh(scenes::step(2.0, 0.03, 0.25, 11));
-  const Vec3 e(0.35793355432284102, 0.24813163079242739, 0.40610893294049166);
   QueryScratch scratch;
   std::vector<Contact> contacts;
   for (const double sink : {0.005, 0.01}) {
     for (int i = 0; i <= 360; ++i) {
       const double yaw = 2 * M_PI * i / 360;
-      const Mat3 r = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-      const Vec3 reach = r.cwiseAbs() * e;
-      const Pose pose = poseFrom(r, Vec3(reach.x() - 0.02, -0.19787124992668759, reach.z() - sink));
-      ASSERT_TRUE(collideBox(mesh, Box{e}, pose, QuerySettings(), scratch, contacts).isOk());
+      ASSERT_TRUE(
+          collideBox(mesh, Box{kStepFootBox}, atTheStepsFoot(i, sink), QuerySettings(), scratch, contacts).isOk());
       bool out_of_the_wall = false;
       for (const Contact& c : contacts) {
         if (angleDeg(c.normal, Vec3::UnitZ()) < 1e-6) {
