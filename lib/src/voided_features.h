@@ -285,6 +285,7 @@ struct FilterScratch {
   std::vector<PieceEdge> open_edges, creases;
   std::vector<std::uint32_t> piece_axes;  // delayed patches that are pushes, by piece (sorted)
   std::vector<double> piece_least_push;
+  std::vector<double> axis_push;  // per patch of piece_axes: the push along its normal that clears its piece
 };
 
 /// Up to this many entered triangles, a patch the keys keep is compared
@@ -419,6 +420,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
     s.entered_normals.resize(entered);
     s.piece_parent.resize(entered);
     s.piece_least_push.resize(entered);
+    s.axis_push.resize(entered);
   }
   for (std::size_t t = 0; t < entered; ++t) {
     const Vec3* w = candidates[s.patch_candidate[t]].vertices;
@@ -526,12 +528,14 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
   for (const std::uint32_t patch : s.piece_axes) {
     Patch& p = s.patches[patch];
     const std::uint32_t piece = find(patch);
-    const double own = push(piece, p.normal);
     double& least = s.piece_least_push[piece];
-    if (std::isnan(least)) {
+    if (std::isnan(least)) {  // once per piece: each of its axes' pushes, kept, and the least
       least = kInf;
       const auto axes = range(s.piece_axes, piece, [&](std::uint32_t a) { return find(a); });
-      for (auto a = axes.first; a != axes.second; ++a) least = std::min(least, push(piece, s.patches[*a].normal));
+      for (auto a = axes.first; a != axes.second; ++a) {
+        s.axis_push[*a] = push(piece, s.patches[*a].normal);
+        least = std::min(least, s.axis_push[*a]);
+      }
       const auto creases = range(s.creases, piece, [](const FilterScratch::PieceEdge& e) { return e.piece; });
       for (auto e = creases.first; e != creases.second; ++e) {
         // Straight out of the piece across the crease, along its plane (no
@@ -548,6 +552,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
     // The patch's own axis stands when it is cheap and within 5% of the
     // cheapest (a box yawed by 41 degrees at a curb's foot: its side face's
     // axis clears the curb, the axis out across the curb's edge for less).
+    const double own = s.axis_push[patch];
     if (own < p.face_push && own - least <= 0.05 * std::abs(least))
       p.plane_push = PlanePush::kOwn;
     else
