@@ -28,6 +28,10 @@
 // heap in 3 of 5 tries, and the two runs that finished returned 10.9-11.1
 // contacts per call where one thread gets 16.7.
 //
+// Groups (ode_meshcontact_group/sphere/members:N): the sphere cases'
+// dCollide against one of N copies of the floor made one surface with
+// makeGroup; what grows with N is the group's bookkeeping.
+//
 // ODE's collider override is process-wide, so each case sets ODE up in its
 // mode first (dInitODE2, installColliders or not) and closes it after.
 //
@@ -281,6 +285,56 @@ void BM_Core(benchmark::State& state, Shape shape) {
   state.counters["contacts"] = benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
 }
 
+// A group of `members` copies of the floor (makeGroup), laid side by side
+// in a square grid, one dTriMeshDataID shared by all: tiles or streamed
+// track pieces made one surface. Each iteration is dCollide(tile 0, sphere)
+// with the sphere placements over tile 0, so the query's triangles are the
+// same whatever the group's size: the cost that grows with it is the
+// group's own bookkeeping (which members the shape reaches).
+void BM_Group(benchmark::State& state) {
+  const int members = static_cast<int>(state.range(0));
+  int side = 1;
+  while (side * side < members) ++side;
+  // The floor's own extent (not the placements' box), so the tiles abut.
+  double size_x = 0.0, size_y = 0.0;
+  {
+    double lo_x = g.vertices[0], hi_x = lo_x, lo_y = g.vertices[1], hi_y = lo_y;
+    for (std::size_t v = 0; v + 2 < g.vertices.size(); v += 3) {
+      lo_x = std::min(lo_x, g.vertices[v]);
+      hi_x = std::max(hi_x, g.vertices[v]);
+      lo_y = std::min(lo_y, g.vertices[v + 1]);
+      hi_y = std::max(hi_y, g.vertices[v + 1]);
+    }
+    size_x = hi_x - lo_x;
+    size_y = hi_y - lo_y;
+  }
+  std::vector<dGeomID> tiles;
+  for (int k = 0; k < members; ++k) {
+    dGeomID tile = dCreateTriMesh(nullptr, g.data, nullptr, nullptr, nullptr);
+    dGeomSetPosition(tile, (k % side) * size_x, (k / side) * size_y, 0.0);
+    tiles.push_back(tile);
+  }
+  if (!mc::ode::makeGroup(tiles.data(), members)) std::abort();
+  dGeomID geom = createGeom(Shape::kSphere);
+  dContactGeom contacts[kContactBudget];
+  const std::size_t n = g.spheres.size();
+  std::size_t i = 0;
+  long total = 0;
+  for (auto _ : state) {
+    setGeom(geom, Shape::kSphere, i);
+    const int found = dCollide(tiles[0], geom, kContactBudget, contacts, sizeof(dContactGeom));
+    benchmark::DoNotOptimize(contacts[0]);
+    total += found;
+    if (++i == n) i = 0;
+  }
+  state.counters["contacts"] = benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
+  dGeomDestroy(geom);
+  for (dGeomID tile : tiles) {
+    mc::ode::leaveGroup(tile);
+    dGeomDestroy(tile);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -319,6 +373,16 @@ int main(int argc, char** argv) {
         ->Repetitions(5)
         ->ReportAggregatesOnly(true);
   }
+  benchmark::RegisterBenchmark("ode_meshcontact_group/sphere", BM_Group)
+      ->Setup(setUpMeshcontact)
+      ->Teardown(tearDown)
+      ->ArgName("members")
+      ->Arg(1)
+      ->Arg(16)
+      ->Arg(256)
+      ->Arg(4096)
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

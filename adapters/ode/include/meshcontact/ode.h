@@ -201,10 +201,18 @@ dGeomID createConvex(dSpaceID space, const dReal* planes, unsigned plane_count, 
 /// compared by exact position in the frame of the first member: pieces meet
 /// without seams when their shared vertices are bitwise equal there (e.g.
 /// pieces authored in one frame and given the same geom pose).
+/// Cost: each pair query reads every member's AABB, as ODE publishes no
+/// way to learn which members moved: about 4-6 ns per member here on top of
+/// the query (a sphere on the floor of ode_adapter_bench: 1.8 us with 1 or
+/// 16 members, 2.9 us with 256, 26 us with 4,096). For a world of thousands
+/// of pieces, pass the pieces near the shape to collideWithGroup from a near
+/// callback instead (or make smaller groups: a seam between two groups is a
+/// boundary, with its edge contacts).
 /// Errors: kInvalidSettings (fewer than 1 geom, a geom that is not a
 /// trimesh, a geom already in a group, a duplicate).
 Status makeGroup(const dGeomID* trimeshes, int count);
-/// Removes the geom from its group (call before dGeomDestroy).
+/// Removes the geom from its group (call before dGeomDestroy); the others
+/// stay one group. Costs a copy of the group's member list.
 void leaveGroup(dGeomID trimesh);
 
 /// From a near callback: collides `shape` with the trimesh geoms as one
