@@ -487,6 +487,93 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   dGeomDestroy(sphere);
 }
 
+// makeGroup's refusals (nothing is registered on an error), and leaveGroup:
+// the members that stay are still one surface, the member that left is a
+// surface of its own again.
+TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  // Three 1 m tiles in a row along x: seams at x = 1 and x = 2.
+  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(3, 1, 2, 0.5, 23);
+  std::vector<std::unique_ptr<OdeMesh>> pieces;
+  std::vector<dGeomID> geoms;
+  for (const scenes::SceneMesh& t : tiles) {
+    pieces.push_back(std::make_unique<OdeMesh>(t));
+    geoms.push_back(pieces.back()->geom);
+  }
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+
+  EXPECT_EQ(ode::makeGroup(nullptr, 2).code(), ErrorCode::kInvalidSettings);
+  EXPECT_EQ(ode::makeGroup(geoms.data(), 0).code(), ErrorCode::kInvalidSettings);
+  const dGeomID with_sphere[] = {geoms[0], sphere};
+  const Status not_trimesh = ode::makeGroup(with_sphere, 2);
+  EXPECT_EQ(not_trimesh.code(), ErrorCode::kInvalidSettings);
+  EXPECT_NE(not_trimesh.message().find("geom 1 is not a trimesh"), std::string::npos) << not_trimesh.message();
+  const dGeomID twice[] = {geoms[1], geoms[0], geoms[2], geoms[0], geoms[1]};
+  const Status listed_twice = ode::makeGroup(twice, 5);
+  EXPECT_EQ(listed_twice.code(), ErrorCode::kInvalidSettings);
+  EXPECT_NE(listed_twice.message().find("geom 3 is listed twice (geom 1 is the same)"), std::string::npos) << listed_twice.message();
+  // The refused calls registered nothing: the three form one group now.
+  ASSERT_TRUE(ode::makeGroup(geoms.data(), 3).isOk());
+  const Status again = ode::makeGroup(&geoms[2], 1);
+  EXPECT_EQ(again.code(), ErrorCode::kInvalidSettings);
+  EXPECT_NE(again.message().find("geom 0 is already in a group"), std::string::npos) << again.message();
+
+  // Spheres over the seam between tiles 1 and 2: how many placements give
+  // more contacts, summed over the three pieces' dCollide, than the core on
+  // the three tiles welded (the seam's edge contacts).
+  scenes::SceneMesh all;
+  for (const scenes::SceneMesh& t : tiles) all.append(t);
+  const scenes::SceneMesh welded_mesh = scenes::weld(all);
+  TriangleMesh welded;
+  ASSERT_TRUE(welded.build(welded_mesh.vertices, welded_mesh.indices).isOk());
+  auto seamGhosts = [&]() {
+    scenes::Rng rng(7);
+    int ghosts = 0;
+    for (int trial = 0; trial < 200; ++trial) {
+      const Vec3 c{2.0 + rng.uniform(-0.2, 0.2), rng.uniform(0.3, 0.7), rng.uniform(0.05, 0.3)};
+      dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+      QueryScratch scratch;
+      std::vector<Contact> want;
+      EXPECT_TRUE(collideSphere(welded, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
+      int found = 0;
+      for (dGeomID g : geoms) {
+        dContactGeom c_out[16];
+        found += dCollide(sphere, g, 16, c_out, sizeof(dContactGeom));
+      }
+      if (found != static_cast<int>(want.size())) ++ghosts;
+    }
+    return ghosts;
+  };
+  EXPECT_EQ(seamGhosts(), 0);
+  ode::leaveGroup(geoms[0]);  // the far tile leaves: tiles 1 and 2 stay one surface
+  EXPECT_EQ(seamGhosts(), 0);
+  ode::leaveGroup(geoms[2]);  // now the seam is between two surfaces
+  EXPECT_GT(seamGhosts(), 10) << "a member that left must be a surface of its own";
+  // And tile 1, alone in the group now, no longer counts tile 2's triangles:
+  // its contacts are the core's on tile 1 alone.
+  TriangleMesh tile1;
+  ASSERT_TRUE(tile1.build(tiles[1].vertices, tiles[1].indices).isOk());
+  scenes::Rng rng(7);
+  int differ = 0, touching = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Vec3 c{2.0 + rng.uniform(-0.2, 0.2), rng.uniform(0.3, 0.7), rng.uniform(0.05, 0.3)};
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    QueryScratch scratch;
+    std::vector<Contact> want;
+    ASSERT_TRUE(collideSphere(tile1, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
+    dContactGeom c_out[16];
+    const int found = dCollide(sphere, geoms[1], 16, c_out, sizeof(dContactGeom));
+    if (found != static_cast<int>(want.size())) ++differ;
+    if (found > 0) ++touching;
+  }
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(touching, 50);
+  // It may join a group again.
+  EXPECT_TRUE(ode::makeGroup(&geoms[2], 1).isOk());
+  dGeomDestroy(sphere);
+}
+
 // ODE's own collider, fed through the triangle filter, only ever sees the
 // triangles the core keeps (its contacts' triangles).
 TEST(OdeConventions, TriangleFilterPassesOnlyKeptTriangles) {

@@ -174,7 +174,20 @@ void clearInstances(ThreadContext& ctx) {
 
 const Group* groupOf(dGeomID trimesh, ThreadContext& ctx) {
   // No group registered at the view's generation: no lookup at all.
-  return ctx.view.any_group ? viewLookup(ctx.view.groups, Registry::get().groups, trimesh) : nullptr;
+  if (!ctx.view.any_group) return nullptr;
+  for (const auto& [geom, group] : ctx.view.groups)
+    if (geom == trimesh) return group.get();
+  // As viewLookup, through the member's slot (GroupSlot).
+  std::shared_ptr<const Group> group;
+  {
+    Registry& r = Registry::get();
+    std::lock_guard<std::mutex> lock(r.mutex);
+    auto it = r.groups.find(trimesh);
+    if (it != r.groups.end()) group = it->second->group;
+  }
+  const Group* raw = group.get();
+  ctx.view.groups.emplace_back(trimesh, std::move(group));
+  return raw;
 }
 
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
@@ -215,6 +228,27 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   return Status::ok();
 }
 
+int repeatedListing(const dGeomID* geoms, int count, std::vector<std::pair<dGeomID, int>>& listed, int& first) {
+  // Sorted by geom, then index: a geom's listings sit side by side, its
+  // first listing at the head of its run.
+  listed.clear();
+  for (int i = 0; i < count; ++i) listed.emplace_back(geoms[i], i);
+  std::sort(listed.begin(), listed.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? std::less<dGeomID>()(a.first, b.first) : a.second < b.second;
+  });
+  int repeat = count;
+  first = count;
+  for (std::size_t k = 1, run = 0; k < listed.size(); ++k) {
+    if (listed[k].first != listed[run].first) {
+      run = k;
+    } else if (listed[k].second < repeat) {
+      repeat = listed[k].second;
+      first = listed[run].second;
+    }
+  }
+  return repeat;
+}
+
 Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, const QuerySettings& settings,
                           ThreadContext& ctx) {
   clearInstances(ctx);
@@ -234,25 +268,10 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
       return {ErrorCode::kInvalidSettings, "collideWithGroup: geom " + std::to_string(i) + " is of class " +
                                                std::to_string(dGeomGetClass(trimeshes[i])) + ", not a trimesh"};
   }
-  // A geom listed twice: the list sorted by geom (then index) puts its
-  // listings side by side, where comparing each geom with every one before
-  // it was quadratic in a list that may hold every piece of a level.
-  // Reported at the lowest index that repeats an earlier listing, with the
-  // first listing of that geom.
-  ctx.listed.clear();
-  for (int i = 0; i < count; ++i) ctx.listed.emplace_back(trimeshes[i], i);
-  std::sort(ctx.listed.begin(), ctx.listed.end(), [](const auto& a, const auto& b) {
-    return a.first != b.first ? std::less<dGeomID>()(a.first, b.first) : a.second < b.second;
-  });
-  int repeat = count, first = 0;
-  for (std::size_t k = 1, run = 0; k < ctx.listed.size(); ++k) {
-    if (ctx.listed[k].first != ctx.listed[run].first) {
-      run = k;
-    } else if (ctx.listed[k].second < repeat) {
-      repeat = ctx.listed[k].second;
-      first = ctx.listed[run].second;
-    }
-  }
+  // A geom listed twice: reported at the lowest index that repeats an
+  // earlier listing, with the first listing of that geom.
+  int first = 0;
+  const int repeat = repeatedListing(trimeshes, count, ctx.listed, first);
   if (repeat < count)
     return {ErrorCode::kInvalidSettings, "collideWithGroup: trimesh " + std::to_string(repeat) + " is trimesh " +
                                              std::to_string(first) + " again"};

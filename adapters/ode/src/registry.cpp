@@ -548,11 +548,17 @@ Status makeGroup(const dGeomID* trimeshes, int count) {
       return {ErrorCode::kInvalidSettings, "makeGroup: geom " + std::to_string(i) + " is not a trimesh"};
     if (r.groups.count(g))
       return {ErrorCode::kInvalidSettings, "makeGroup: geom " + std::to_string(i) + " is already in a group"};
-    for (dGeomID m : group->members)
-      if (m == g) return {ErrorCode::kInvalidSettings, "makeGroup: geom " + std::to_string(i) + " is listed twice"};
     group->members.push_back(g);
   }
-  for (dGeomID g : group->members) r.groups[g] = group;
+  std::vector<std::pair<dGeomID, int>> listed;
+  int first = 0;
+  const int repeat = detail::repeatedListing(trimeshes, count, listed, first);
+  if (repeat < count)
+    return {ErrorCode::kInvalidSettings, "makeGroup: geom " + std::to_string(repeat) + " is listed twice (geom " +
+                                             std::to_string(first) + " is the same)"};
+  auto slot = std::make_shared<detail::GroupSlot>();
+  slot->group = std::move(group);
+  for (dGeomID g : slot->group->members) r.groups[g] = slot;
   r.generation.fetch_add(1);
   return Status::ok();
 }
@@ -562,12 +568,18 @@ void leaveGroup(dGeomID trimesh) {
   std::lock_guard<std::mutex> lock(r.mutex);
   auto it = r.groups.find(trimesh);
   if (it == r.groups.end()) return;
-  // Groups are immutable (queries in flight hold them): build the smaller one.
-  auto smaller = std::make_shared<detail::Group>();
-  for (dGeomID m : it->second->members)
-    if (m != trimesh) smaller->members.push_back(m);
+  // Groups are immutable (queries in flight hold them): the smaller one
+  // replaces it in the slot the other members share.
+  detail::GroupSlot& slot = *it->second;
+  std::shared_ptr<detail::Group> smaller;
+  if (slot.group->members.size() > 1) {
+    smaller = std::make_shared<detail::Group>();
+    smaller->members.reserve(slot.group->members.size() - 1);
+    for (dGeomID m : slot.group->members)
+      if (m != trimesh) smaller->members.push_back(m);
+  }
+  slot.group = std::move(smaller);
   r.groups.erase(it);
-  for (dGeomID m : smaller->members) r.groups[m] = smaller;
   r.generation.fetch_add(1);
 }
 
