@@ -291,7 +291,13 @@ void BM_Core(benchmark::State& state, Shape shape) {
 // with the sphere placements over tile 0, so the query's triangles are the
 // same whatever the group's size: the cost that grows with it is the
 // group's own bookkeeping (which members the shape reaches).
-void BM_Group(benchmark::State& state) {
+//
+// BM_GroupAllPairs (ode_meshcontact_group_pairs/sphere/members:4): 2 x 2
+// tiles, the placements moved by half a tile in x and y so that the spheres
+// lie around the corner the four tiles share; each iteration collides the
+// sphere with every tile whose AABB overlaps its own, as dSpaceCollide's
+// near callback would: the time per sphere, over its 1-4 pairs.
+void BM_Group(benchmark::State& state, bool all_pairs) {
   const int members = static_cast<int>(state.range(0));
   int side = 1;
   while (side * side < members) ++side;
@@ -319,15 +325,35 @@ void BM_Group(benchmark::State& state) {
   dContactGeom contacts[kContactBudget];
   const std::size_t n = g.spheres.size();
   std::size_t i = 0;
-  long total = 0;
+  long total = 0, pairs = 0;
   for (auto _ : state) {
     setGeom(geom, Shape::kSphere, i);
-    const int found = dCollide(tiles[0], geom, kContactBudget, contacts, sizeof(dContactGeom));
-    benchmark::DoNotOptimize(contacts[0]);
-    total += found;
+    if (!all_pairs) {
+      const int found = dCollide(tiles[0], geom, kContactBudget, contacts, sizeof(dContactGeom));
+      benchmark::DoNotOptimize(contacts[0]);
+      total += found;
+    } else {
+      const dReal* c = dGeomGetPosition(geom);
+      dGeomSetPosition(geom, c[0] + 0.5 * size_x, c[1] + 0.5 * size_y, c[2]);
+      dReal box[6];
+      dGeomGetAABB(geom, box);
+      for (dGeomID tile : tiles) {
+        dReal tile_box[6];
+        dGeomGetAABB(tile, tile_box);
+        bool overlap = true;
+        for (int k = 0; k < 3; ++k) overlap = overlap && box[2 * k] <= tile_box[2 * k + 1] && tile_box[2 * k] <= box[2 * k + 1];
+        if (!overlap) continue;
+        ++pairs;
+        const int found = dCollide(tile, geom, kContactBudget, contacts, sizeof(dContactGeom));
+        benchmark::DoNotOptimize(contacts[0]);
+        total += found;
+      }
+    }
     if (++i == n) i = 0;
   }
   state.counters["contacts"] = benchmark::Counter(static_cast<double>(total), benchmark::Counter::kAvgIterations);
+  if (all_pairs)
+    state.counters["pairs"] = benchmark::Counter(static_cast<double>(pairs), benchmark::Counter::kAvgIterations);
   dGeomDestroy(geom);
   for (dGeomID tile : tiles) {
     mc::ode::leaveGroup(tile);
@@ -373,7 +399,7 @@ int main(int argc, char** argv) {
         ->Repetitions(5)
         ->ReportAggregatesOnly(true);
   }
-  benchmark::RegisterBenchmark("ode_meshcontact_group/sphere", BM_Group)
+  benchmark::RegisterBenchmark("ode_meshcontact_group/sphere", BM_Group, false)
       ->Setup(setUpMeshcontact)
       ->Teardown(tearDown)
       ->ArgName("members")
@@ -381,6 +407,13 @@ int main(int argc, char** argv) {
       ->Arg(16)
       ->Arg(256)
       ->Arg(4096)
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true);
+  benchmark::RegisterBenchmark("ode_meshcontact_group_pairs/sphere", BM_Group, true)
+      ->Setup(setUpMeshcontact)
+      ->Teardown(tearDown)
+      ->ArgName("members")
+      ->Arg(4)
       ->Repetitions(5)
       ->ReportAggregatesOnly(true);
   benchmark::RunSpecifiedBenchmarks();

@@ -487,6 +487,75 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   dGeomDestroy(sphere);
 }
 
+// The override's pairs with the members of a group reuse the group query
+// of the pair before when its inputs are the same (GroupQueryMemo): every
+// pair must still give what collideWithGroup (which never reuses) gives for
+// that member, after any input changed in between: a member's pose, the
+// shape's pose or size, the settings.
+TEST(OdeConventions, GroupPairsAfterAnyChangeAreTheGroupQuerysContacts) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  // 2 x 2 tiles of 1 m: the spheres lie around their shared corner (1, 1).
+  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(2, 2, 2, 0.5, 29);
+  std::vector<std::unique_ptr<OdeMesh>> pieces;
+  std::vector<dGeomID> geoms;
+  for (const scenes::SceneMesh& t : tiles) {
+    pieces.push_back(std::make_unique<OdeMesh>(t));
+    geoms.push_back(pieces.back()->geom);
+  }
+  ASSERT_TRUE(ode::makeGroup(geoms.data(), 4).isOk());
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  scenes::Rng rng(31);
+  int checked = 0, several = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Vec3 c{1.0 + rng.uniform(-0.25, 0.25), 1.0 + rng.uniform(-0.25, 0.25), rng.uniform(0.05, 0.3)};
+    dGeomSphereSetRadius(sphere, 0.3);
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    for (dGeomID g : geoms) dGeomSetPosition(g, 0.0, 0.0, 0.0);
+    // The first pair fills the memo; then one input changes (or none).
+    dContactGeom first[16];
+    dCollide(geoms[0], sphere, 16, first, sizeof(dContactGeom));
+    const int change = trial % 5;
+    if (change == 1) dGeomSetPosition(geoms[1 + trial % 3], 0.0, 0.0, -1e-3);  // a member sinks 1 mm
+    if (change == 2) dGeomSetPosition(sphere, c.x(), c.y(), c.z() - 1e-3);
+    if (change == 3) dGeomSphereSetRadius(sphere, 0.3 + 1e-3);
+    if (change == 4) {
+      ode::Settings settings = ode::currentSettings();
+      // Without the filter: every touched triangle's closest-point contact.
+      settings.query.filter = (trial / 5) % 2 == 0 ? FilterMode::kNone : FilterMode::kVoidedFeatures;
+      ASSERT_TRUE(ode::setSettings(settings).isOk());
+    }
+    dContactGeom all[64];
+    const int n_all = ode::collideWithGroup(sphere, geoms.data(), 4, 64, all, sizeof(dContactGeom));
+    int pairs_with_contacts = 0;
+    for (dGeomID g : geoms) {
+      dContactGeom got[16];
+      const int n = dCollide(g, sphere, 16, got, sizeof(dContactGeom));
+      int k = 0;
+      for (int i = 0; i < n_all; ++i) {
+        if (all[i].g2 != g) continue;
+        ASSERT_LT(k, n) << "trial " << trial << ": a contact of the group query is missing";
+        // dCollide(trimesh, shape): g1 = the trimesh, the normal into it.
+        EXPECT_EQ(vec(got[k].pos), vec(all[i].pos)) << "trial " << trial;
+        EXPECT_EQ(vec(got[k].normal), Vec3(-vec(all[i].normal))) << "trial " << trial;
+        EXPECT_EQ(got[k].depth, all[i].depth) << "trial " << trial;
+        EXPECT_EQ(got[k].side1, all[i].side2) << "trial " << trial;
+        ++k;
+      }
+      EXPECT_EQ(k, n) << "trial " << trial << ": the pair has a contact the group query has not";
+      if (n > 0) ++pairs_with_contacts;
+      ++checked;
+    }
+    if (pairs_with_contacts > 1) ++several;
+  }
+  EXPECT_EQ(checked, 1600);
+  ode::Settings settings = ode::currentSettings();
+  EXPECT_EQ(settings.query.filter, FilterMode::kVoidedFeatures);  // the last settings change restored it
+  EXPECT_GT(several, 40) << "the spheres must give contacts through several tiles, or the memo is not tested";
+  for (dGeomID g : geoms) ode::leaveGroup(g);
+  dGeomDestroy(sphere);
+}
+
 // makeGroup's refusals (nothing is registered on an error), and leaveGroup:
 // the members that stay are still one surface, the member that left is a
 // surface of its own again.

@@ -145,6 +145,9 @@ struct RegistryView {
   /// A list longer than this is dropped at the next refresh.
   static constexpr std::size_t kMaxEntries = 64;
   std::uint64_t generation = 0;  // the registry starts at 1: the first refresh reads it
+  /// Counts the refreshes that dropped the lists: a pointer read through the
+  /// view (a mesh, group or hull) stays valid while this has not moved.
+  std::uint64_t resets = 0;
   Settings settings;
   bool any_group = false;
   std::vector<std::pair<dTriMeshDataID, std::shared_ptr<const MeshEntry>>> meshes;
@@ -200,6 +203,25 @@ struct ThreadContext;
 /// handle, an unregistered convex geom).
 Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out);
 
+/// The last query of the override that gathered several group members: its
+/// inputs, bit for bit, and every member's contacts. dSpaceCollide's near
+/// callback calls the override once for each member the shape's AABB
+/// touches, and each of those pairs gathers the same members (gatherInstances)
+/// and asks the same query, keeping its own member's contacts: the second
+/// and later pairs reuse these contacts (runGroupQuery). The contacts are a
+/// function of these inputs alone (the registry's settings at `generation`,
+/// the shape in the query frame, the instances), so they are the same
+/// contacts the query would give again.
+struct GroupQueryMemo {
+  bool valid = false;
+  std::uint64_t generation = 0, view_resets = 0;  // the instances' and hull's pointers are the view's
+  ShapeQuery shape;  // in the query frame
+  Pose frame;
+  std::vector<dGeomID> geoms;
+  std::vector<MeshInstance> instances;
+  std::vector<Contact> contacts;  // every instance's, in the query frame
+};
+
 /// Per-thread scratch: no allocation once every buffer reached its size.
 struct ThreadContext {
   QueryScratch scratch;
@@ -213,6 +235,7 @@ struct ThreadContext {
   ShapeQuery shape;
   Pose frame;  // query frame -> world
   RegistryView view;
+  GroupQueryMemo group_memo;
   ThreadCounters counters;
 };
 ThreadContext& threadContext();
@@ -249,6 +272,11 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
 /// Runs the core query for ctx.shape (already in the query frame) against
 /// ctx.instances; contacts in the query frame into ctx.contacts.
 Status runShapeQuery(const QuerySettings& settings, ThreadContext& ctx);
+
+/// runShapeQuery for the override: when the instances are several group
+/// members and the inputs equal ctx.group_memo's bit for bit, its contacts;
+/// otherwise the query, remembered when it succeeds.
+Status runGroupQuery(const QuerySettings& settings, ThreadContext& ctx);
 
 /// describeShape + the pose in ctx.frame.
 Status shapeInFrame(dGeomID shape, ThreadContext& ctx);

@@ -68,7 +68,7 @@ int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* con
   std::uint32_t own = 0;
   Status s = detail::gatherInstances(trimesh, shape, settings.query, ctx, own);
   if (s) s = detail::shapeInFrame(shape, ctx);
-  if (s) s = detail::runShapeQuery(settings.query, ctx);
+  if (s) s = detail::runGroupQuery(settings.query, ctx);
   if (!s) {
     detail::report(s, trimesh, shape);
     return 0;

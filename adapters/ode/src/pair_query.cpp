@@ -5,6 +5,7 @@
 #include "adapter.h"
 
 #include <algorithm>
+#include <cstring>
 #include <functional>
 #include <string>
 
@@ -319,6 +320,53 @@ Status runShapeQuery(const QuerySettings& settings, ThreadContext& ctx) {
       return collideConvex(inst, n, *q.hull, q.pose, settings, ctx.scratch, ctx.contacts);
   }
   return {ErrorCode::kInvalidShape, "unknown shape kind"};
+}
+
+namespace {
+
+bool sameBits(const double* a, const double* b, std::size_t n) { return std::memcmp(a, b, n * sizeof(double)) == 0; }
+
+bool samePose(const Pose& a, const Pose& b) {
+  return sameBits(a.rotation.data(), b.rotation.data(), 9) && sameBits(a.translation.data(), b.translation.data(), 3);
+}
+
+bool sameShape(const ShapeQuery& a, const ShapeQuery& b) {
+  return a.kind == b.kind && sameBits(&a.radius, &b.radius, 1) && sameBits(&a.half_length, &b.half_length, 1) &&
+         sameBits(a.half_extents.data(), b.half_extents.data(), 3) && a.hull == b.hull && samePose(a.pose, b.pose);
+}
+
+bool memoHolds(const GroupQueryMemo& m, const ThreadContext& ctx) {
+  if (!m.valid || m.generation != ctx.view.generation || m.view_resets != ctx.view.resets) return false;
+  if (m.geoms != ctx.instance_geoms || !samePose(m.frame, ctx.frame) || !sameShape(m.shape, ctx.shape)) return false;
+  for (std::size_t i = 0; i < m.instances.size(); ++i)
+    if (m.instances[i].mesh != ctx.instances[i].mesh || !samePose(m.instances[i].pose, ctx.instances[i].pose))
+      return false;
+  return true;
+}
+
+}  // namespace
+
+Status runGroupQuery(const QuerySettings& settings, ThreadContext& ctx) {
+  // One instance: a trimesh alone, or a member whose neighbours the shape
+  // does not reach; no other pair asks this query.
+  if (ctx.instances.size() < 2) return runShapeQuery(settings, ctx);
+  GroupQueryMemo& m = ctx.group_memo;
+  if (memoHolds(m, ctx)) {
+    ctx.contacts = m.contacts;
+    return Status::ok();
+  }
+  m.valid = false;
+  Status s = runShapeQuery(settings, ctx);
+  if (!s) return s;
+  m.valid = true;
+  m.generation = ctx.view.generation;
+  m.view_resets = ctx.view.resets;
+  m.shape = ctx.shape;
+  m.frame = ctx.frame;
+  m.geoms = ctx.instance_geoms;
+  m.instances = ctx.instances;
+  m.contacts = ctx.contacts;
+  return s;
 }
 
 void selectContacts(const std::vector<Contact>& contacts, int budget, std::vector<std::uint32_t>& chosen,

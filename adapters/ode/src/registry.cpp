@@ -79,6 +79,7 @@ const Settings& refreshView(ThreadContext& ctx) {
     v.meshes.clear();
     v.groups.clear();
     v.hulls.clear();
+    ++v.resets;
   }
   return v.settings;
 }

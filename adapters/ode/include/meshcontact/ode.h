@@ -201,6 +201,13 @@ dGeomID createConvex(dSpaceID space, const dReal* planes, unsigned plane_count, 
 /// compared by exact position in the frame of the first member: pieces meet
 /// without seams when their shared vertices are bitwise equal there (e.g.
 /// pieces authored in one frame and given the same geom pose).
+/// ODE collides a shape that touches several members once per member; on
+/// one thread, the override's pairs after the first reuse its query (every
+/// member's contacts) while its inputs are the same bit for bit: the members
+/// it gathered, their poses and data, the shape's pose and size, the
+/// settings.
+/// (ode_adapter_bench's group_pairs case, 1.5 pairs per sphere: 2.95 us per
+/// sphere before, 2.15 us.)
 /// Cost: each pair query reads every member's AABB, as ODE publishes no
 /// way to learn which members moved: about 4-6 ns per member here on top of
 /// the query (a sphere on the floor of ode_adapter_bench: 1.8 us with 1 or
@@ -262,7 +269,7 @@ void detachTriangleFilter(dGeomID trimesh);
 // --- Diagnostics ------------------------------------------------------------------
 
 struct Statistics {
-  std::uint64_t pair_queries = 0;       // collider / filter / group queries run
+  std::uint64_t pair_queries = 0;       // collider and collideWithGroup calls, triangle-filter queries
   std::uint64_t contacts_found = 0;     // contacts the core returned for the pair asked
   std::uint64_t contacts_returned = 0;  // written to ODE (the budget may cut)
   std::uint64_t mesh_builds = 0;        // BVHs built for the cache (one that raced an invalidation of its data is
