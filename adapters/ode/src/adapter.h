@@ -145,8 +145,9 @@ struct RegistryView {
   /// A list longer than this is dropped at the next refresh.
   static constexpr std::size_t kMaxEntries = 64;
   std::uint64_t generation = 0;  // the registry starts at 1: the first refresh reads it
-  /// Counts the refreshes that dropped the lists: a pointer read through the
-  /// view (a mesh, group or hull) stays valid while this has not moved.
+  /// Counts the refreshes that dropped the lists, and the entries replaced
+  /// in them (meshFor, after ODE's data was rebuilt): a pointer read through
+  /// the view (a mesh, group or hull) stays valid while this has not moved.
   std::uint64_t resets = 0;
   Settings settings;
   bool any_group = false;

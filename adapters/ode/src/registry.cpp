@@ -355,10 +355,12 @@ Status meshFor(dGeomID trimesh, ThreadContext& ctx, const MeshEntry*& out) {
   s = entryFor(data, count, entry);
   if (!s) return s;
   out = entry.get();
-  if (held)
-    *held = std::move(entry);
-  else
+  if (held) {
+    *held = std::move(entry);  // may free the entry held before
+    ++ctx.view.resets;
+  } else {
     ctx.view.meshes.emplace_back(data, std::move(entry));
+  }
   return Status::ok();
 }
 
