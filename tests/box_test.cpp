@@ -10,6 +10,7 @@
 #include <fcl/narrowphase/collision.h>
 
 #include <cmath>
+#include <limits>
 
 namespace meshcontact {
 namespace {
@@ -717,6 +718,68 @@ TEST(BoxFigures, Ridge) {
   const auto slope = runOn(m, box, poseFrom(tilt, on_slope));
   expectNormals(slope, {left}, "on a slope");
   EXPECT_EQ(slope.size(), 4u);
+}
+
+// A box lying across the ridge's apex, level or with an edge along the apex
+// (turned 45 degrees about it), sunk or hovering within the contact
+// distance: a line contact along the apex, which the tessellation cuts into
+// 0.25 segments. Each segment meets the box with the same normal; the one
+// nearest the box's deepest point voids the vertex it shares with the next,
+// whose contact ties there. Dropped with it, that segment's part of the line
+// was lost, and the box was held along one segment only (0.25 of its 0.4
+// along the apex; hovering, by one point when its edge lay along the apex).
+// The contacts must span the box's whole length along the apex.
+TEST(BoxFigures, LyingAlongARidgesApexIsHeldAlongItsLength) {
+  const SceneMesh m = scenes::ridge(2.0, 30.0, 0.25, 10);
+  TriangleMesh mesh;
+  ASSERT_TRUE(mesh.build(m.view()).isOk());
+  const Box box{Vec3(0.3, 0.2, 0.1)};
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  for (const bool edge_down : {false, true}) {
+    const Mat3 r = edge_down ? Mat3(Eigen::AngleAxisd(M_PI / 4, Vec3::UnitY())) : Mat3::Identity();
+    // The box's lowest edge (along y) in the xz-plane, and its push off the apex.
+    Vec3 low = r * Vec3(-0.3, 0.0, -0.1);
+    for (const double sx : {-1.0, 1.0})
+      for (const double sz : {-1.0, 1.0}) {
+        const Vec3 corner = r * Vec3(sx * 0.3, 0.0, sz * 0.1);
+        if (corner.z() < low.z()) low = corner;
+      }
+    for (const double gap : {-0.005, 0.005}) {
+      for (int k = 0; k <= 20; ++k) {
+        // The box's ends anywhere along the apex's segments; last, an end
+        // exactly over an apex vertex (y + 0.2 = 0.25).
+        const double y = k < 20 ? -0.3 + 0.037 * k : 0.05;
+        const Vec3 at = edge_down ? Vec3(-low.x(), y, gap - low.z()) : Vec3(0.0, y, 0.1 + gap);
+        const std::string what = std::string(edge_down ? "edge down" : "level") + ", gap " + std::to_string(gap) +
+                                 ", centre y " + std::to_string(y);
+        ASSERT_TRUE(collideBox(mesh, box, poseFrom(r, at), settings, scratch, contacts).isOk());
+        // The line contact: the contacts with the deepest one's normal (the
+        // push off the apex; which push that is, is not this test's matter:
+        // a level box sunk 0.005 also gets, at 2 of these 21 places, a face
+        // contact 1.2 mm deep with a slope's normal, from a slope triangle
+        // that meets the apex at one vertex).
+        ASSERT_FALSE(contacts.empty()) << what;
+        Vec3 want = contacts[0].normal;
+        double deepest = contacts[0].depth;
+        for (const Contact& c : contacts)
+          if (c.depth > deepest) deepest = c.depth, want = c.normal;
+        int on_line = 0;
+        double y_lo = std::numeric_limits<double>::infinity(), y_hi = -y_lo;
+        for (const Contact& c : contacts) {
+          if (angleDeg(c.normal, want) > 1e-6) continue;
+          ++on_line;
+          y_lo = std::min(y_lo, c.point.y());
+          y_hi = std::max(y_hi, c.point.y());
+        }
+        EXPECT_GE(on_line, 2) << what;
+        EXPECT_NEAR(y_lo, y - 0.2, 1e-9) << what;
+        EXPECT_NEAR(y_hi, y + 0.2, 1e-9) << what;
+      }
+    }
+  }
 }
 
 // --- Bad input ---------------------------------------------------------------

@@ -40,7 +40,12 @@
 //     face part is written in its place only when it is voided and a face
 //     contact ranked before it in the same plane holds its feature (or,
 //     for a patch that is no push, when it is kept). A query with such
-//     parts meets its delayed patches sorted.
+//     parts meets its delayed patches sorted (every query of such a
+//     narrowphase does).
+//   - such a narrowphase's delayed patch voided by a written contact whose
+//     normal is its own (to round-off) is that contact going on across the
+//     mesh's edges (a box lying along a ridge's apex: one line contact over
+//     several apex segments): written, not dropped.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -74,6 +79,9 @@ struct Patch {
   /// FacePartsStandIn narrowphases only: set by the filter (markPlanePushes;
   /// in Feature's padding).
   PlanePush plane_push = PlanePush::kOwn;
+  /// FacePartsStandIn narrowphases only: set by the filter, whether the
+  /// patch is written (a face contact, or a delayed patch once met).
+  bool kept = false;
   double distance = 0.0;  // shape-to-triangle distance: the delayed sort key (see DefersEdgesAndVertices)
   Vec3 normal = Vec3::UnitZ();
   int count = 0;
@@ -608,6 +616,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
     if constexpr (stand_in_parts) {
       stand_ins |= !face && p.face_count > 0;
       p.plane_push = PlanePush::kOwn;
+      p.kept = face;
     }
     SortItem& item = (face ? s.accepted : s.delayed).emplace_back();
     item.distance = p.distance;
@@ -621,10 +630,11 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   }
 
   // Pass 2: each delayed contact against the triangles ranked before it (§5).
-  // In the candidates' order, but in rank order when a patch offers a
-  // stand-in: whether a patch ranked before it has become a face must not
-  // depend on the midphase's order.
-  if (stand_in_parts && stand_ins) std::sort(s.delayed.begin(), s.delayed.end());
+  // In the candidates' order for the sphere; in rank order for a
+  // FacePartsStandIn narrowphase (the box), whose patches depend on what
+  // the patches ranked before them became (a face part standing in, a
+  // contact going on, below), which must not depend on the midphase's order.
+  if (stand_in_parts) std::sort(s.delayed.begin(), s.delayed.end());
   if constexpr (stand_in_parts) {
     if (stand_ins) markPlanePushes(candidates, s, identity, narrowphase);
   }
@@ -676,6 +686,33 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!stand_in) p.face_count = 0;
     }
     const bool face_only = (voided || stand_in_parts) && p.face_count > 0;
+    if (stand_in_parts && voided && !face_only && p.plane_push != PlanePush::kNone) {
+      // A line contact across tessellated edges: a box lying across a
+      // ridge's apex (or its edge along the apex) meets each apex segment
+      // with the same normal, between the slopes'. The segment nearest its
+      // deepest point is met first and voids the vertex it shares with the
+      // next, where that next one's contact ties (the box level along the
+      // apex): dropped, it took its part of the line with it, and the box
+      // was held over one segment only (0.25 of its 0.4 along the apex).
+      // Voided by a written contact whose normal is its own (to round-off:
+      // 1e-12, about 1.4e-6 rad), the patch is the same contact going on:
+      // written. Not to kStandInCosine's 3 degrees: a box yawed by 1-3
+      // degrees at a curb's foot, or tilted beside a cliff's edge, has
+      // patches along its own face axes that the wall's or the ledge's face
+      // contacts void, and those pushes are not the surface's.
+      // (Met in rank order, so each holder's `kept` is final.)
+      const Vec3 own = p.normal;
+      const auto same_contact = [&](const SortItem& r) {
+        const Patch& q = s.patches[r.patch];
+        return q.kept && q.plane_push != PlanePush::kNone && q.normal.dot(own) >= 1.0 - 1e-12;
+      };
+      const int i = p.feature.index;
+      bool goes_on = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, same_contact);
+      if (!goes_on && identity == VertexIdentity::kKeysOrPositions)
+        goes_on = heldByPosition(candidates, s, p.feature, c, item, positions_built, same_contact);
+      if (goes_on) voided = false;
+    }
+    if constexpr (stand_in_parts) p.kept = !voided || face_only;
     if (face_only) {  // the patch becomes its face part
       p.feature = Feature::face();
       p.normal = p.face_normal;
