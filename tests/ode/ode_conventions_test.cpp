@@ -70,6 +70,27 @@ struct OdeMesh {
   OdeMesh& operator=(const OdeMesh&) = delete;
 };
 
+// Tiles of scenes::tiledFloor, each a trimesh geom over registered arrays
+// (geoms in tile order), and the core's mesh of all of them welded: one
+// surface, as a group of the tiles must behave.
+struct OdeTiles {
+  std::vector<scenes::SceneMesh> meshes;
+  std::vector<std::unique_ptr<OdeMesh>> pieces;
+  std::vector<dGeomID> geoms;
+  TriangleMesh welded;
+
+  explicit OdeTiles(std::vector<scenes::SceneMesh> tiles) : meshes(std::move(tiles)) {
+    scenes::SceneMesh all;
+    for (const scenes::SceneMesh& t : meshes) {
+      pieces.push_back(std::make_unique<OdeMesh>(t));
+      geoms.push_back(pieces.back()->geom);
+      all.append(t);
+    }
+    const scenes::SceneMesh one = scenes::weld(all);
+    EXPECT_TRUE(welded.build(one.vertices, one.indices).isOk());
+  }
+};
+
 // The core's answer for `shape` against `mesh` placed at `mesh_pose` (world),
 // computed here from the public core API, in the mesh frame.
 Status coreContacts(const TriangleMesh& mesh, const Pose& mesh_pose, dGeomID shape, const ConvexHull* hull,
@@ -408,17 +429,9 @@ TEST(OdeConventions, UpdateRebuildsTheCache) {
 TEST(OdeConventions, GroupedTilesAreOneSurface) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());
-  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(4, 4, 2, 0.5, 21);
-  std::vector<std::unique_ptr<OdeMesh>> pieces;
-  std::vector<dGeomID> geoms;
-  for (const scenes::SceneMesh& t : tiles) {
-    pieces.push_back(std::make_unique<OdeMesh>(t));
-    geoms.push_back(pieces.back()->geom);
-  }
-  scenes::SceneMesh all;
-  for (const scenes::SceneMesh& t : tiles) all.append(t);
-  TriangleMesh welded;
-  ASSERT_TRUE(welded.build(scenes::weld(all).vertices, scenes::weld(all).indices).isOk());
+  const OdeTiles tiles(scenes::tiledFloor(4, 4, 2, 0.5, 21));
+  const std::vector<dGeomID>& geoms = tiles.geoms;
+  const TriangleMesh& welded = tiles.welded;
 
   dGeomID sphere = dCreateSphere(nullptr, 0.3);
   auto collideEach = [&](std::vector<Vec3>& normals) {
@@ -496,13 +509,8 @@ TEST(OdeConventions, GroupPairsAfterAnyChangeAreTheGroupQuerysContacts) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());
   // 2 x 2 tiles of 1 m: the spheres lie around their shared corner (1, 1).
-  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(2, 2, 2, 0.5, 29);
-  std::vector<std::unique_ptr<OdeMesh>> pieces;
-  std::vector<dGeomID> geoms;
-  for (const scenes::SceneMesh& t : tiles) {
-    pieces.push_back(std::make_unique<OdeMesh>(t));
-    geoms.push_back(pieces.back()->geom);
-  }
+  const OdeTiles tiles(scenes::tiledFloor(2, 2, 2, 0.5, 29));
+  const std::vector<dGeomID>& geoms = tiles.geoms;
   ASSERT_TRUE(ode::makeGroup(geoms.data(), 4).isOk());
   dGeomID sphere = dCreateSphere(nullptr, 0.3);
   scenes::Rng rng(31);
@@ -552,8 +560,7 @@ TEST(OdeConventions, GroupPairsAfterAnyChangeAreTheGroupQuerysContacts) {
   ode::Settings settings = ode::currentSettings();
   EXPECT_EQ(settings.query.filter, FilterMode::kVoidedFeatures);  // the last settings change restored it
   EXPECT_GT(several, 40) << "the spheres must give contacts through several tiles, or the memo is not tested";
-  for (dGeomID g : geoms) ode::leaveGroup(g);
-  dGeomDestroy(sphere);
+  dGeomDestroy(sphere);  // the tiles leave the group as they are destroyed (OdeMesh)
 }
 
 // makeGroup's refusals (nothing is registered on an error), and leaveGroup:
@@ -563,13 +570,8 @@ TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());
   // Three 1 m tiles in a row along x: seams at x = 1 and x = 2.
-  const std::vector<scenes::SceneMesh> tiles = scenes::tiledFloor(3, 1, 2, 0.5, 23);
-  std::vector<std::unique_ptr<OdeMesh>> pieces;
-  std::vector<dGeomID> geoms;
-  for (const scenes::SceneMesh& t : tiles) {
-    pieces.push_back(std::make_unique<OdeMesh>(t));
-    geoms.push_back(pieces.back()->geom);
-  }
+  const OdeTiles tiles(scenes::tiledFloor(3, 1, 2, 0.5, 23));
+  const std::vector<dGeomID>& geoms = tiles.geoms;
   dGeomID sphere = dCreateSphere(nullptr, 0.3);
 
   EXPECT_EQ(ode::makeGroup(nullptr, 2).code(), ErrorCode::kInvalidSettings);
@@ -591,11 +593,7 @@ TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
   // Spheres over the seam between tiles 1 and 2: how many placements give
   // more contacts, summed over the three pieces' dCollide, than the core on
   // the three tiles welded (the seam's edge contacts).
-  scenes::SceneMesh all;
-  for (const scenes::SceneMesh& t : tiles) all.append(t);
-  const scenes::SceneMesh welded_mesh = scenes::weld(all);
-  TriangleMesh welded;
-  ASSERT_TRUE(welded.build(welded_mesh.vertices, welded_mesh.indices).isOk());
+  const TriangleMesh& welded = tiles.welded;
   auto seamGhosts = [&]() {
     scenes::Rng rng(7);
     int ghosts = 0;
@@ -622,7 +620,7 @@ TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
   // And tile 1, alone in the group now, no longer counts tile 2's triangles:
   // its contacts are the core's on tile 1 alone.
   TriangleMesh tile1;
-  ASSERT_TRUE(tile1.build(tiles[1].vertices, tiles[1].indices).isOk());
+  ASSERT_TRUE(tile1.build(tiles.meshes[1].vertices, tiles.meshes[1].indices).isOk());
   scenes::Rng rng(7);
   int differ = 0, touching = 0;
   for (int trial = 0; trial < 200; ++trial) {
