@@ -257,7 +257,11 @@ int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int fla
 /// kAllShapes (rays, other trimeshes) see every triangle. The result for a
 /// pair is computed once per pose and reused for the other triangles of the
 /// same collision (and for the next collision of the same pair on the
-/// thread while nothing it depends on changed). A query that fails is
+/// thread while nothing it depends on changed: the shape, the registry, and
+/// the trimesh and the group members the query gathered; ODE gives no sign
+/// of a new collision, and a member of the group that moves into the
+/// shape's reach meanwhile, while the shape keeps its pose to the bit, is
+/// not read until the pair changes). A query that fails is
 /// reported once for the collision, not once per triangle (see "Errors"),
 /// and leaves every triangle of it to ODE's collider.
 /// Not useful together with installColliders for the same shapes: the
