@@ -274,6 +274,12 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
 /// ctx.instances; contacts in the query frame into ctx.contacts.
 Status runShapeQuery(const QuerySettings& settings, ThreadContext& ctx);
 
+/// Bit for bit (memcmp): equal bits are the same query, and a NaN equals
+/// itself, so that a failed query is not run again for the same input.
+bool samePose(const Pose& a, const Pose& b);
+/// The kind and parameters (not the pose), bit for bit.
+bool sameParams(const ShapeQuery& a, const ShapeQuery& b);
+
 /// runShapeQuery for the override: when the instances are several group
 /// members and the inputs equal ctx.group_memo's bit for bit, its contacts;
 /// otherwise the query, remembered when it succeeds.

@@ -326,18 +326,24 @@ namespace {
 
 bool sameBits(const double* a, const double* b, std::size_t n) { return std::memcmp(a, b, n * sizeof(double)) == 0; }
 
+}  // namespace
+
 bool samePose(const Pose& a, const Pose& b) {
   return sameBits(a.rotation.data(), b.rotation.data(), 9) && sameBits(a.translation.data(), b.translation.data(), 3);
 }
 
-bool sameShape(const ShapeQuery& a, const ShapeQuery& b) {
+bool sameParams(const ShapeQuery& a, const ShapeQuery& b) {
   return a.kind == b.kind && sameBits(&a.radius, &b.radius, 1) && sameBits(&a.half_length, &b.half_length, 1) &&
-         sameBits(a.half_extents.data(), b.half_extents.data(), 3) && a.hull == b.hull && samePose(a.pose, b.pose);
+         sameBits(a.half_extents.data(), b.half_extents.data(), 3) && a.hull == b.hull;
 }
+
+namespace {
 
 bool memoHolds(const GroupQueryMemo& m, const ThreadContext& ctx) {
   if (!m.valid || m.generation != ctx.view.generation || m.view_resets != ctx.view.resets) return false;
-  if (m.geoms != ctx.instance_geoms || !samePose(m.frame, ctx.frame) || !sameShape(m.shape, ctx.shape)) return false;
+  if (m.geoms != ctx.instance_geoms || !samePose(m.frame, ctx.frame) || !sameParams(m.shape, ctx.shape) ||
+      !samePose(m.shape.pose, ctx.shape.pose))
+    return false;
   for (std::size_t i = 0; i < m.instances.size(); ++i)
     if (m.instances[i].mesh != ctx.instances[i].mesh || !samePose(m.instances[i].pose, ctx.instances[i].pose))
       return false;

@@ -21,7 +21,6 @@
 #include "adapter.h"
 
 #include <algorithm>
-#include <cstring>
 
 namespace meshcontact::ode {
 namespace {
@@ -59,35 +58,25 @@ Memo& threadMemo() {
   return memo;
 }
 
-// Bitwise: equal bits are the same query, and a NaN pose (a failed query)
-// equals itself, so that its error is reported once, not at every triangle.
-bool samePose(const Pose& a, const Pose& b) {
-  return std::memcmp(a.rotation.data(), b.rotation.data(), 9 * sizeof(double)) == 0 &&
-         std::memcmp(a.translation.data(), b.translation.data(), 3 * sizeof(double)) == 0;
-}
-
 Memo::Member memberState(dGeomID g) {
   const dTriMeshDataID data = dGeomTriMeshGetData(g);
   return {g, detail::geomPose(g), data, data != nullptr ? dGeomTriMeshGetTriangleCount(g) : 0};
 }
 
-bool sameParams(const detail::ShapeQuery& a, const detail::ShapeQuery& b) {
-  return a.kind == b.kind && a.radius == b.radius && a.half_length == b.half_length &&
-         a.half_extents == b.half_extents && a.hull == b.hull;
-}
-
 bool memoHolds(const Memo& m, dGeomID trimesh, dGeomID shape) {
   if (!m.valid || m.trimesh != trimesh || m.shape != shape) return false;
   if (m.generation != Registry::get().generation.load()) return false;
-  if (!samePose(m.shape_pose, detail::geomPose(shape))) return false;
+  // Bitwise (detail::samePose): a NaN pose (a failed query) equals itself,
+  // so that its error is reported once, not at every triangle.
+  if (!detail::samePose(m.shape_pose, detail::geomPose(shape))) return false;
   detail::ShapeQuery now;
   const bool described = static_cast<bool>(detail::describeShape(shape, detail::threadContext(), now));
-  if (described != m.described || (described && !sameParams(now, m.params))) return false;
+  if (described != m.described || (described && !detail::sameParams(now, m.params))) return false;
   // The trimesh and the group members it gathered (a moved or rebuilt one
   // changes the query); the member list itself is covered by the generation.
   for (const Memo::Member& was : m.members) {
     const Memo::Member now = memberState(was.geom);
-    if (!samePose(was.pose, now.pose) || was.data != now.data || was.triangles != now.triangles) return false;
+    if (!detail::samePose(was.pose, now.pose) || was.data != now.data || was.triangles != now.triangles) return false;
   }
   return true;
 }
