@@ -590,52 +590,44 @@ TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
   EXPECT_EQ(again.code(), ErrorCode::kInvalidSettings);
   EXPECT_NE(again.message().find("geom 0 is already in a group"), std::string::npos) << again.message();
 
-  // Spheres over the seam between tiles 1 and 2: how many placements give
-  // more contacts, summed over the three pieces' dCollide, than the core on
-  // the three tiles welded (the seam's edge contacts).
-  const TriangleMesh& welded = tiles.welded;
-  auto seamGhosts = [&]() {
+  // Spheres over the seam between tiles 1 and 2, 200 placements: how many
+  // give another number of contacts, summed over the `pieces`' dCollide,
+  // than the core on `reference` (and how many give any).
+  struct Count {
+    int differ = 0, touching = 0;
+  };
+  auto compare = [&](const TriangleMesh& reference, const std::vector<dGeomID>& pieces) {
     scenes::Rng rng(7);
-    int ghosts = 0;
+    Count n;
     for (int trial = 0; trial < 200; ++trial) {
       const Vec3 c{2.0 + rng.uniform(-0.2, 0.2), rng.uniform(0.3, 0.7), rng.uniform(0.05, 0.3)};
       dGeomSetPosition(sphere, c.x(), c.y(), c.z());
       QueryScratch scratch;
       std::vector<Contact> want;
-      EXPECT_TRUE(collideSphere(welded, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
+      EXPECT_TRUE(collideSphere(reference, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
       int found = 0;
-      for (dGeomID g : geoms) {
+      for (dGeomID g : pieces) {
         dContactGeom c_out[16];
         found += dCollide(sphere, g, 16, c_out, sizeof(dContactGeom));
       }
-      if (found != static_cast<int>(want.size())) ++ghosts;
+      if (found != static_cast<int>(want.size())) ++n.differ;
+      if (found > 0) ++n.touching;
     }
-    return ghosts;
+    return n;
   };
-  EXPECT_EQ(seamGhosts(), 0);
+  // The three tiles against their welded mesh: the seam's edge contacts.
+  EXPECT_EQ(compare(tiles.welded, geoms).differ, 0);
   ode::leaveGroup(geoms[0]);  // the far tile leaves: tiles 1 and 2 stay one surface
-  EXPECT_EQ(seamGhosts(), 0);
+  EXPECT_EQ(compare(tiles.welded, geoms).differ, 0);
   ode::leaveGroup(geoms[2]);  // now the seam is between two surfaces
-  EXPECT_GT(seamGhosts(), 10) << "a member that left must be a surface of its own";
+  EXPECT_GT(compare(tiles.welded, geoms).differ, 10) << "a member that left must be a surface of its own";
   // And tile 1, alone in the group now, no longer counts tile 2's triangles:
   // its contacts are the core's on tile 1 alone.
   TriangleMesh tile1;
   ASSERT_TRUE(tile1.build(tiles.meshes[1].vertices, tiles.meshes[1].indices).isOk());
-  scenes::Rng rng(7);
-  int differ = 0, touching = 0;
-  for (int trial = 0; trial < 200; ++trial) {
-    const Vec3 c{2.0 + rng.uniform(-0.2, 0.2), rng.uniform(0.3, 0.7), rng.uniform(0.05, 0.3)};
-    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
-    QueryScratch scratch;
-    std::vector<Contact> want;
-    ASSERT_TRUE(collideSphere(tile1, Sphere{c, 0.3}, ode::currentSettings().query, scratch, want).isOk());
-    dContactGeom c_out[16];
-    const int found = dCollide(sphere, geoms[1], 16, c_out, sizeof(dContactGeom));
-    if (found != static_cast<int>(want.size())) ++differ;
-    if (found > 0) ++touching;
-  }
-  EXPECT_EQ(differ, 0);
-  EXPECT_GT(touching, 50);
+  const Count alone = compare(tile1, {geoms[1]});
+  EXPECT_EQ(alone.differ, 0);
+  EXPECT_GT(alone.touching, 50);
   // It may join a group again.
   EXPECT_TRUE(ode::makeGroup(&geoms[2], 1).isOk());
   dGeomDestroy(sphere);
