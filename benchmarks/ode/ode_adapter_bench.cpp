@@ -30,7 +30,9 @@
 //
 // Groups (ode_meshcontact_group/sphere/members:N): the sphere cases'
 // dCollide against one of N copies of the floor made one surface with
-// makeGroup; what grows with N is the group's bookkeeping.
+// makeGroup; what grows with N is the group's bookkeeping. And
+// ode_meshcontact_group_pairs: a sphere collided with each of the 2 x 2
+// tiles it touches, as a near callback would (see BM_Group).
 //
 // ODE's collider override is process-wide, so each case sets ODE up in its
 // mode first (dInitODE2, installColliders or not) and closes it after.
@@ -292,7 +294,7 @@ void BM_Core(benchmark::State& state, Shape shape) {
 // same whatever the group's size: the cost that grows with it is the
 // group's own bookkeeping (which members the shape reaches).
 //
-// BM_GroupAllPairs (ode_meshcontact_group_pairs/sphere/members:4): 2 x 2
+// With all_pairs (ode_meshcontact_group_pairs/sphere/members:4): 2 x 2
 // tiles, the placements moved by half a tile in x and y so that the spheres
 // lie around the corner the four tiles share; each iteration collides the
 // sphere with every tile whose AABB overlaps its own, as dSpaceCollide's
@@ -341,7 +343,8 @@ void BM_Group(benchmark::State& state, bool all_pairs) {
         dReal tile_box[6];
         dGeomGetAABB(tile, tile_box);
         bool overlap = true;
-        for (int k = 0; k < 3; ++k) overlap = overlap && box[2 * k] <= tile_box[2 * k + 1] && tile_box[2 * k] <= box[2 * k + 1];
+        for (int k = 0; k < 3; ++k)
+          overlap = overlap && box[2 * k] <= tile_box[2 * k + 1] && tile_box[2 * k] <= box[2 * k + 1];
         if (!overlap) continue;
         ++pairs;
         const int found = dCollide(tile, geom, kContactBudget, contacts, sizeof(dContactGeom));

@@ -583,7 +583,8 @@ TEST(OdeConventions, MakeGroupRefusesBadArgumentsAndLeavingSplitsTheGroup) {
   const dGeomID twice[] = {geoms[1], geoms[0], geoms[2], geoms[0], geoms[1]};
   const Status listed_twice = ode::makeGroup(twice, 5);
   EXPECT_EQ(listed_twice.code(), ErrorCode::kInvalidSettings);
-  EXPECT_NE(listed_twice.message().find("geom 3 is listed twice (geom 1 is the same)"), std::string::npos) << listed_twice.message();
+  EXPECT_NE(listed_twice.message().find("geom 3 is listed twice (geom 1 is the same)"), std::string::npos)
+      << listed_twice.message();
   // The refused calls registered nothing: the three form one group now.
   ASSERT_TRUE(ode::makeGroup(geoms.data(), 3).isOk());
   const Status again = ode::makeGroup(&geoms[2], 1);
