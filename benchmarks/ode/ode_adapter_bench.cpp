@@ -32,7 +32,9 @@
 // dCollide against one of N copies of the floor made one surface with
 // makeGroup; what grows with N is the group's bookkeeping. And
 // ode_meshcontact_group_pairs: a sphere collided with each of the 2 x 2
-// tiles it touches, as a near callback would (see BM_Group).
+// tiles it touches, as a near callback would (see BM_Group); and
+// ode_filter_group_pairs: the same pairs through ODE's own collider with
+// the triangle filter attached to every tile (attachTriangleFilter).
 //
 // ODE's collider override is process-wide, so each case sets ODE up in its
 // mode first (dInitODE2, installColliders or not) and closes it after.
@@ -298,8 +300,11 @@ void BM_Core(benchmark::State& state, Shape shape) {
 // tiles, the placements moved by half a tile in x and y so that the spheres
 // lie around the corner the four tiles share; each iteration collides the
 // sphere with every tile whose AABB overlaps its own, as dSpaceCollide's
-// near callback would: the time per sphere, over its 1-4 pairs.
-void BM_Group(benchmark::State& state, bool all_pairs) {
+// near callback would: the time per sphere, over its 1-4 pairs. With
+// `filtered` too (ode_filter_group_pairs, ODE set up without the override):
+// each tile carries the triangle filter and ODE's collider makes the
+// contacts.
+void BM_Group(benchmark::State& state, bool all_pairs, bool filtered) {
   const int members = static_cast<int>(state.range(0));
   int side = 1;
   while (side * side < members) ++side;
@@ -321,6 +326,7 @@ void BM_Group(benchmark::State& state, bool all_pairs) {
     dGeomID tile = dCreateTriMesh(nullptr, g.data, nullptr, nullptr, nullptr);
     dGeomSetPosition(tile, (k % side) * size_x, (k / side) * size_y, 0.0);
     tiles.push_back(tile);
+    if (filtered && !mc::ode::attachTriangleFilter(tile)) std::abort();
   }
   if (!mc::ode::makeGroup(tiles.data(), members)) std::abort();
   dGeomID geom = createGeom(Shape::kSphere);
@@ -402,7 +408,7 @@ int main(int argc, char** argv) {
         ->Repetitions(5)
         ->ReportAggregatesOnly(true);
   }
-  benchmark::RegisterBenchmark("ode_meshcontact_group/sphere", BM_Group, false)
+  benchmark::RegisterBenchmark("ode_meshcontact_group/sphere", BM_Group, false, false)
       ->Setup(setUpMeshcontact)
       ->Teardown(tearDown)
       ->ArgName("members")
@@ -412,8 +418,15 @@ int main(int argc, char** argv) {
       ->Arg(4096)
       ->Repetitions(5)
       ->ReportAggregatesOnly(true);
-  benchmark::RegisterBenchmark("ode_meshcontact_group_pairs/sphere", BM_Group, true)
+  benchmark::RegisterBenchmark("ode_meshcontact_group_pairs/sphere", BM_Group, true, false)
       ->Setup(setUpMeshcontact)
+      ->Teardown(tearDown)
+      ->ArgName("members")
+      ->Arg(4)
+      ->Repetitions(5)
+      ->ReportAggregatesOnly(true);
+  benchmark::RegisterBenchmark("ode_filter_group_pairs/sphere", BM_Group, true, true)
+      ->Setup(setUpNative)
       ->Teardown(tearDown)
       ->ArgName("members")
       ->Arg(4)

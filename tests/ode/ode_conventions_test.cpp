@@ -765,6 +765,75 @@ TEST(OdeConventions, TriangleFilterFailureFollowsTheWholeGroup) {
   dGeomDestroy(sphere);
 }
 
+// The triangle filter's pairs with the members of a group reuse the group
+// query (its trace) of the pair before when its inputs are the same: every
+// pair must still give what a fresh query gives (each reference pair comes
+// after a settings write, which no memo outlives), after any input changed
+// in between: a member's pose, the shape's pose or size, the settings.
+TEST(OdeConventions, TriangleFilterGroupPairsAfterAnyChangeAreFreshQueries) {
+  Session session;  // native colliders
+  ASSERT_TRUE(ode::setSettings(ode::Settings()).isOk());
+  // 2 x 2 tiles of 1 m: the spheres lie around their shared corner (1, 1).
+  const OdeTiles tiles(scenes::tiledFloor(2, 2, 2, 0.5, 29));
+  const std::vector<dGeomID>& geoms = tiles.geoms;
+  ASSERT_TRUE(ode::makeGroup(geoms.data(), 4).isOk());
+  for (dGeomID g : geoms) ASSERT_TRUE(ode::attachTriangleFilter(g).isOk());
+  ode::resetStatistics();
+  dGeomID sphere = dCreateSphere(nullptr, 0.3);
+  scenes::Rng rng(37);
+  const int skip = sizeof(dContactGeom);
+  int checked = 0, several = 0, filtered_away = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const Vec3 c{1.0 + rng.uniform(-0.25, 0.25), 1.0 + rng.uniform(-0.25, 0.25), rng.uniform(0.05, 0.3)};
+    dGeomSphereSetRadius(sphere, 0.3);
+    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+    for (dGeomID g : geoms) dGeomSetPosition(g, 0.0, 0.0, 0.0);
+    // The first pair fills the memos; then one input changes (or none).
+    dContactGeom first[32];
+    dCollide(geoms[0], sphere, 32, first, skip);
+    const int change = trial % 5;
+    if (change == 1) dGeomSetPosition(geoms[1 + trial % 3], 0.0, 0.0, -1e-3);  // a member sinks 1 mm
+    if (change == 2) dGeomSetPosition(sphere, c.x(), c.y(), c.z() - 1e-3);
+    if (change == 3) dGeomSphereSetRadius(sphere, 0.3 + 1e-3);
+    if (change == 4) {
+      ode::Settings settings = ode::currentSettings();
+      // Without the filter: only back-facing and degenerate triangles go.
+      settings.query.filter = (trial / 5) % 2 == 0 ? FilterMode::kNone : FilterMode::kVoidedFeatures;
+      ASSERT_TRUE(ode::setSettings(settings).isOk());
+      dCollide(geoms[0], sphere, 32, first, skip);  // the memos again, at the new settings
+    }
+    std::array<std::array<dContactGeom, 32>, 4> got{};
+    std::array<int, 4> n{};
+    for (int k = 0; k < 4; ++k) n[k] = dCollide(geoms[k], sphere, 32, got[k].data(), skip);
+    int pairs_with_contacts = 0;
+    for (int k = 0; k < 4; ++k) {
+      ASSERT_TRUE(ode::setSettings(ode::currentSettings()).isOk());  // a new generation: no memo holds
+      dContactGeom want[32];
+      const int n_want = dCollide(geoms[k], sphere, 32, want, skip);
+      ASSERT_EQ(n[k], n_want) << "trial " << trial << ", tile " << k;
+      for (int i = 0; i < n_want; ++i) {
+        EXPECT_EQ(vec(got[k][i].pos), vec(want[i].pos)) << "trial " << trial;
+        EXPECT_EQ(vec(got[k][i].normal), vec(want[i].normal)) << "trial " << trial;
+        EXPECT_EQ(got[k][i].depth, want[i].depth) << "trial " << trial;
+        EXPECT_EQ(got[k][i].side1, want[i].side1) << "trial " << trial;
+      }
+      ode::detachTriangleFilter(geoms[k]);
+      dContactGeom native[32];
+      filtered_away += dCollide(geoms[k], sphere, 32, native, skip) - n_want;
+      ASSERT_TRUE(ode::attachTriangleFilter(geoms[k]).isOk());
+      if (n_want > 0) ++pairs_with_contacts;
+      ++checked;
+    }
+    if (pairs_with_contacts > 1) ++several;
+  }
+  EXPECT_EQ(checked, 1600);
+  EXPECT_EQ(ode::statistics().errors, 0u) << ode::lastError();
+  EXPECT_GT(several, 40) << "the spheres must give contacts through several tiles, or the memo is not tested";
+  EXPECT_GT(filtered_away, 100) << "the filter must reject triangles ODE would touch, or its verdicts are not tested";
+  for (dGeomID g : geoms) ode::detachTriangleFilter(g);
+  dGeomDestroy(sphere);  // the tiles leave the group as they are destroyed (OdeMesh)
+}
+
 // The triangle filter runs one query per collision, whatever shapes the
 // thread described before (a description left over from a box once made
 // every later sphere's memo miss: one query per triangle ODE found).

@@ -204,23 +204,26 @@ struct ThreadContext;
 /// handle, an unregistered convex geom).
 Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out);
 
-/// The last query of the override that gathered several group members: its
-/// inputs, bit for bit, and every member's contacts. dSpaceCollide's near
-/// callback calls the override once for each member the shape's AABB
-/// touches, and each of those pairs gathers the same members (gatherInstances)
-/// and asks the same query, keeping its own member's contacts: the second
-/// and later pairs reuse these contacts (runGroupQuery). The contacts are a
-/// function of these inputs alone (the registry's settings at `generation`,
-/// the shape in the query frame, the instances), so they are the same
-/// contacts the query would give again.
+/// The last query that gathered several group members: its inputs, bit for
+/// bit, every member's contacts and, when it was asked for one, its trace.
+/// dSpaceCollide's near callback calls the override (or ODE's collider, with
+/// the triangle filter) once for each member the shape's AABB touches, and
+/// each of those pairs gathers the same members (gatherInstances) and asks
+/// the same query, keeping its own member's contacts (or verdicts): the
+/// second and later pairs reuse them (runGroupQuery). Both are a function
+/// of these inputs alone (the registry's settings at `generation`, the
+/// shape in the query frame, the instances), so they are what the query
+/// would give again.
 struct GroupQueryMemo {
   bool valid = false;
+  bool traced = false;  // `trace` holds the query's trace (the triangle filter asked for it)
   std::uint64_t generation = 0, view_resets = 0;  // the instances' and hull's pointers are the view's
   ShapeQuery shape;  // in the query frame
   Pose frame;
   std::vector<dGeomID> geoms;
   std::vector<MeshInstance> instances;
   std::vector<Contact> contacts;  // every instance's, in the query frame
+  std::vector<TraceEntry> trace;  // every instance's verdicts, when `traced`
 };
 
 /// Per-thread scratch: no allocation once every buffer reached its size.
@@ -280,9 +283,12 @@ bool samePose(const Pose& a, const Pose& b);
 /// The kind and parameters (not the pose), bit for bit.
 bool sameParams(const ShapeQuery& a, const ShapeQuery& b);
 
-/// runShapeQuery for the override: when the instances are several group
-/// members and the inputs equal ctx.group_memo's bit for bit, its contacts;
-/// otherwise the query, remembered when it succeeds.
+/// runShapeQuery for a pair of a shape and a group member (the override and
+/// the triangle filter): when the instances are several group members and
+/// the inputs equal ctx.group_memo's bit for bit, its contacts (and, when
+/// settings.trace is set, its trace, if the memo has one); otherwise the
+/// query, remembered when it succeeds. `settings` are the view's, with
+/// at most `trace` set: the memo stands for the settings by `generation`.
 Status runGroupQuery(const QuerySettings& settings, ThreadContext& ctx);
 
 /// describeShape + the pose in ctx.frame.

@@ -357,14 +357,17 @@ Status runGroupQuery(const QuerySettings& settings, ThreadContext& ctx) {
   // does not reach; no other pair asks this query.
   if (ctx.instances.size() < 2) return runShapeQuery(settings, ctx);
   GroupQueryMemo& m = ctx.group_memo;
-  if (memoHolds(m, ctx)) {
+  if (memoHolds(m, ctx) && (settings.trace == nullptr || m.traced)) {
     ctx.contacts = m.contacts;
+    if (settings.trace != nullptr) *settings.trace = m.trace;
     return Status::ok();
   }
   m.valid = false;
   Status s = runShapeQuery(settings, ctx);
   if (!s) return s;
   m.valid = true;
+  m.traced = settings.trace != nullptr;
+  if (m.traced) m.trace = *settings.trace;
   m.generation = ctx.view.generation;
   m.view_resets = ctx.view.resets;
   m.shape = ctx.shape;

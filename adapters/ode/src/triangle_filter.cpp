@@ -18,6 +18,8 @@
 // rejected triangles is a pure function of the pair's inputs (both poses, the
 // shape's parameters, the meshes, the settings), so it is computed on the
 // first triangle of a collision and reused while those inputs are unchanged.
+// The pairs of one shape with several members of a group share one query
+// (runGroupQuery: its trace holds every member's verdicts).
 #include "adapter.h"
 
 #include <algorithm>
@@ -102,7 +104,7 @@ void recompute(Memo& m, dGeomID trimesh, dGeomID shape) {
   std::uint32_t own = 0;
   Status s = detail::gatherInstances(trimesh, shape, settings, ctx, own);
   if (s) s = detail::shapeInFrame(shape, ctx);
-  if (s) s = detail::runShapeQuery(settings, ctx);
+  if (s) s = detail::runGroupQuery(settings, ctx);  // one query for all the group's pairs with this shape
   // The memo's inputs (see Memo::members) and the shape's parameters, for
   // a failed query too, whose error is then reported once for the
   // collision, not once per triangle.
