@@ -13,6 +13,7 @@
 #include <meshcontact/shapes.h>
 
 #include <array>
+#include <cstdarg>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -1246,6 +1247,42 @@ TEST(OdeConventions, ReinitialisingOdeRestoresNativeColliders) {
   EXPECT_EQ(count(true), 1);
   EXPECT_EQ(count(false), native_before);
   EXPECT_GT(native_before, 1);
+}
+
+// Before dInitODE2 and after dCloseODE, ODE's collider table is not
+// initialised: dSetColliderOverride asserts, and an ODE assertion ends the
+// process. installColliders reports it instead, installs nothing, keeps the
+// settings, and leaves the user's ODE debug handler in place.
+int debug_messages = 0;
+void countDebugMessage(int, const char*, va_list) { ++debug_messages; }
+
+TEST(OdeConventions, InstallingBeforeDInitOdeIsAnError) {
+  dSetDebugHandler(&countDebugMessage);
+  ode::Settings recognisable;
+  recognisable.query.contact_distance = 0.25;
+  for (const bool after_close : {false, true}) {
+    if (after_close) {
+      Session session;
+      ASSERT_TRUE(ode::installColliders().isOk());
+    }  // dCloseODE
+    unsigned installed = 99;
+    const Status s = ode::installColliders(recognisable, &installed);
+    ASSERT_FALSE(s.isOk()) << (after_close ? "after dCloseODE" : "before dInitODE2");
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidSettings);
+    EXPECT_NE(s.message().find("dInitODE2"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("colliders_initialized"), std::string::npos) << s.message();  // ODE's own words
+    EXPECT_EQ(installed, 0u);
+    EXPECT_EQ(ode::currentSettings().query.contact_distance, 0.0) << "a refused install must not set the settings";
+  }
+  EXPECT_EQ(dGetDebugHandler(), &countDebugMessage) << "the user's debug handler must be restored";
+  EXPECT_EQ(debug_messages, 0) << "the assertion is caught before the user's handler sees it";
+  dSetDebugHandler(nullptr);
+  // And once ODE is initialised, the same call installs every shape's collider.
+  Session session;
+  unsigned installed = 0;
+  ASSERT_TRUE(ode::installColliders(recognisable, &installed).isOk());
+  EXPECT_EQ(installed, static_cast<unsigned>(ode::kAllShapes));
+  EXPECT_EQ(ode::currentSettings().query.contact_distance, 0.25);
 }
 
 }  // namespace

@@ -159,6 +159,9 @@ struct RegistryView {
 /// Counts the error, keeps its message, calls the user's handler.
 void report(const Status& status, dGeomID trimesh, dGeomID shape);
 
+/// The errors setSettings and installColliders report for these settings.
+Status checkSettings(const Settings& settings);
+
 /// The cached BVH of this trimesh geom's data (built on first use).
 Status meshFor(dGeomID trimesh, std::shared_ptr<const MeshEntry>& out);
 

@@ -2,6 +2,9 @@
 // convex) and collideWithGroup: core contacts converted to dContactGeom.
 #include "adapter.h"
 
+#include <cstdarg>
+#include <cstdio>
+
 namespace meshcontact::ode {
 namespace {
 
@@ -81,22 +84,56 @@ int trimeshCollider(dGeomID trimesh, dGeomID shape, int flags, dContactGeom* con
   return written;
 }
 
+// ODE's internal assertions call its debug handler, then abort() when the
+// handler returns. This one throws, so that an assertion in a call made
+// while it is installed (OdeAssertionGuard) becomes an error.
+struct OdeAssertion {
+  std::string message;
+};
+
+void throwOdeAssertion(int, const char* format, va_list args) {
+  char text[512];
+  std::vsnprintf(text, sizeof text, format, args);
+  throw OdeAssertion{text};
+}
+
+class OdeAssertionGuard {
+ public:
+  OdeAssertionGuard() : previous_(dGetDebugHandler()) { dSetDebugHandler(&throwOdeAssertion); }
+  ~OdeAssertionGuard() { dSetDebugHandler(previous_); }
+  OdeAssertionGuard(const OdeAssertionGuard&) = delete;
+  OdeAssertionGuard& operator=(const OdeAssertionGuard&) = delete;
+
+ private:
+  dMessageFunction* previous_;
+};
+
 }  // namespace
 
 Status installColliders(const Settings& settings, unsigned* installed) {
   if (installed) *installed = 0;
-  Status s = setSettings(settings);
+  Status s = detail::checkSettings(settings);
   if (!s) return s;
   static const int kClasses[] = {dSphereClass, dCapsuleClass, dBoxClass, dCylinderClass, dConvexClass};
   unsigned done = 0;
-  for (int cls : kClasses) {
-    const unsigned bit = detail::shapeBit(cls);
-    if ((settings.shapes & bit) == 0) continue;
-    dSetColliderOverride(dTriMeshClass, cls, &trimeshCollider);
-    done |= bit;
+  try {
+    // Before dInitODE2 (or after dCloseODE) ODE's collider table is not
+    // initialised, and dSetColliderOverride's first statement asserts that
+    // it is, which aborts the process; ODE publishes no way to ask. The
+    // assertion comes before any change, so nothing is installed then.
+    const OdeAssertionGuard guard;
+    for (int cls : kClasses) {
+      const unsigned bit = detail::shapeBit(cls);
+      if ((settings.shapes & bit) == 0) continue;
+      dSetColliderOverride(dTriMeshClass, cls, &trimeshCollider);
+      done |= bit;
+    }
+  } catch (const OdeAssertion& e) {
+    return {ErrorCode::kInvalidSettings,
+            "installColliders: ODE refused the override (call dInitODE2 first): " + e.message};
   }
   if (installed) *installed = done;
-  return Status::ok();
+  return setSettings(settings);
 }
 
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts, int skip) {

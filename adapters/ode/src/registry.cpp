@@ -248,6 +248,8 @@ Status checkArrays(const void* vertices, int vertex_stride, int vertex_count, co
   return Status::ok();
 }
 
+}  // namespace
+
 Status checkSettings(const Settings& s) {
   const double d = s.query.contact_distance;
   if (!inRange(d) || d < 0.0)
@@ -269,8 +271,6 @@ Status checkSettings(const Settings& s) {
     return {ErrorCode::kInvalidSettings, "unknown bits in Settings::shapes: " + std::to_string(s.shapes)};
   return Status::ok();
 }
-
-}  // namespace
 
 namespace {
 

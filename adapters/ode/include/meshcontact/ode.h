@@ -130,7 +130,9 @@ struct Settings {
 /// the mask actually installed. Errors: kInvalidSettings (a contact
 /// distance that is negative, not finite or beyond 1e50, a bad manifold
 /// angle, a key or filter mode none of its enum's, unknown bits in
-/// `shapes`).
+/// `shapes`; called before dInitODE2() or after dCloseODE(), where ODE's
+/// own assertion would end the process: nothing is installed and the
+/// settings are not changed).
 Status installColliders(const Settings& settings = Settings(), unsigned* installed = nullptr);
 
 /// Sets the settings without installing colliders (for the triangle filter
