@@ -39,8 +39,12 @@
 //     along the surface). Otherwise the patch's own push stands, and its
 //     face part is written in its place only when it is voided and a face
 //     contact ranked before it in the same plane holds its feature (or,
-//     for a patch that is no push, when it is kept). A query with such
-//     parts meets its delayed patches sorted (every query of such a
+//     for a patch that is no push, when it is kept). A patch whose axis
+//     leaves its triangle across a convex crease past the other face's
+//     normal (outside the edge's normal cone) is no push of the surface:
+//     its face part stands in (or, when that is a much larger push, the
+//     patch is dropped), and its axis is none of its piece's. A query with
+//     such parts meets its delayed patches sorted (every query of such a
 //     narrowphase does).
 //   - such a narrowphase's delayed patch voided by a written contact whose
 //     normal is its own (to round-off) is that contact going on across the
@@ -69,8 +73,10 @@ namespace meshcontact::detail {
 enum class PlanePush : std::uint8_t {
   kOwn,   // the patch's own tilted axis clears them cheaply: its push stands
   kFace,  // no tilted axis does: the plane goes on, the face part stands in
+          // (also: the patch's axis points past a convex crease, pointsBeyondCrease)
   kNone,  // another tilted axis does, not this one (it pushes along the
           // plane, into its triangles beyond): dropped, and voids nothing
+          // (also: past a convex crease, its face part a much larger push)
 };
 
 /// What a per-triangle narrowphase reports for one candidate.
@@ -293,6 +299,7 @@ struct FilterScratch {
   std::vector<PieceEdge> open_edges, creases;
   std::vector<std::uint32_t> piece_axes;  // delayed patches that are pushes, by piece (sorted)
   std::vector<double> piece_least_push;
+  std::vector<std::uint8_t> beyond_crease;  // per patch: pointsBeyondCrease for its feature's edge
   std::vector<double> axis_push;  // per patch of piece_axes: the push along its normal that clears its piece
 };
 
@@ -381,6 +388,34 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
   return Verdict::kDegenerate;
 }
 
+// Whether unit axis N, a patch's on a triangle of normal n whose feature is
+// its edge a->b, points past the normal n2 of the other surface's triangle
+// (corners w2) holding that edge, by more than 3 degrees, where the edge is
+// convex (that triangle behind this one's plane). Across a convex crease
+// the surface's normals are those between the two faces' (the edge's
+// Voronoi region, reference §4); past n2 an axis is no push the surface
+// gives there: markPlanePushes has the face part stand in. (A box with an
+// edge along a ridge's apex, 30-degree slopes: each slope's triangles chose
+// the box's 45-degree side face, and one slope's contacts, tied with the
+// other's and met first, voided them: the box was pushed off the ridge
+// sideways, 15 degrees outside the apex's normals.) The 3 degrees are
+// kStandInCosine's: within them, N is the other face's normal to the
+// tessellation's noise.
+inline bool pointsBeyondCrease(const Vec3& a, const Vec3& b, const Vec3& n, const Vec3& n2, const Vec3* w2,
+                               const Vec3& N) {
+  const Vec3 d = normalizedOr(b - a, Vec3::Zero());
+  if (d.isZero()) return false;
+  const double flat = 1e-9 * (b - a).norm();
+  for (int i = 0; i < 3; ++i)
+    if (n.dot(w2[i] - a) > flat) return false;
+  const Vec3 across = normalizedOr(N - N.dot(d) * d, Vec3::Zero());
+  if (across.isZero()) return false;
+  const double turn = n.cross(n2).dot(d);  // from n to n2 about d
+  const double past = n2.cross(across).dot(d), from_n = n.cross(across).dot(d);
+  constexpr double kSin3 = 0.052335956242943835;  // sin(3 degrees): kStandInCosine's angle
+  return turn != 0.0 && past * turn > 0.0 && from_n * turn > 0.0 && std::abs(past) > kSin3;
+}
+
 /// Sets Patch::plane_push on each delayed patch with a face part that is a
 /// push (finite face_push). Its piece of surface: the query's triangles
 /// connected to it through shared edges between triangles whose normals
@@ -398,7 +433,9 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 /// triangles under it). Axes tried: the normals of the piece's delayed
 /// patches that are pushes, and straight out across a crease (an edge of
 /// the piece that a triangle of another surface holds: a ledge's edge, the
-/// cliff's wall below it).
+/// cliff's wall below it). Not tried: the axis of a patch that points past
+/// a convex crease on its feature (pointsBeyondCrease); that patch is kFace
+/// when its face push is at most twice its own depth, else kNone.
 ///
 /// A tilted axis is least for one triangle when the triangle ends there:
 /// at the surface's end (a plate's edge, a ledge's) some axis is cheap for
@@ -429,12 +466,14 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
     s.piece_parent.resize(entered);
     s.piece_least_push.resize(entered);
     s.axis_push.resize(entered);
+    s.beyond_crease.resize(entered);
   }
   for (std::size_t t = 0; t < entered; ++t) {
     const Vec3* w = candidates[s.patch_candidate[t]].vertices;
     s.entered_normals[t] = normalizedOr((w[1] - w[0]).cross(w[2] - w[0]), Vec3::Zero());
     s.piece_parent[t] = static_cast<std::uint32_t>(t);
     s.piece_least_push[t] = std::numeric_limits<double>::quiet_NaN();
+    s.beyond_crease[t] = 0;
   }
   const auto find = [&](std::uint32_t t) {
     while (s.piece_parent[t] != t) t = s.piece_parent[t] = s.piece_parent[s.piece_parent[t]];
@@ -459,6 +498,11 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
           if (a != b) s.piece_parent[a] = b;
         } else {
           other = true;
+          const Patch& p = s.patches[t];
+          if (p.feature == Feature::edge(k) && p.face_count > 0 && p.face_push < kInf &&
+              pointsBeyondCrease(c.vertices[k], c.vertices[(k + 1) % 3], s.entered_normals[t],
+                                 s.entered_normals[r.patch], candidates[s.patch_candidate[r.patch]].vertices, p.normal))
+            s.beyond_crease[t] = 1;
         }
         return false;  // every holder
       };
@@ -476,8 +520,23 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
   std::sort(s.creases.begin(), s.creases.end());
   s.piece_axes.clear();
   for (const SortItem& item : s.delayed) {
-    const Patch& p = s.patches[item.patch];
-    if (p.face_count > 0 && p.face_push < kInf) s.piece_axes.push_back(item.patch);
+    Patch& p = s.patches[item.patch];
+    if (!(p.face_count > 0 && p.face_push < kInf)) continue;
+    if (s.beyond_crease[item.patch]) {
+      // No push the surface gives. Its face part stands in where that is
+      // about the same push (its normal is the cone's boundary); a much
+      // larger one would make the box jump, and the crease's other face,
+      // whose normal is nearer the patch's, answers: dropped. (Twice: a box
+      // beside an 80-degree wall's top got a face part 0.1 deep from a
+      // ledge triangle whose tilted patch was barely touching, and was
+      // pushed up onto the ledge; a box edge-down on a 30-degree ridge needs
+      // 1.16. Cliffs' tests pass up to 6.)
+      double own = 0.0;
+      for (int k = 0; k < p.count; ++k) own = std::max(own, p.depths[k]);
+      p.plane_push = p.face_push <= 2.0 * own ? PlanePush::kFace : PlanePush::kNone;
+      continue;
+    }
+    s.piece_axes.push_back(item.patch);
   }
   std::sort(s.piece_axes.begin(), s.piece_axes.end(),
             [&](std::uint32_t a, std::uint32_t b) { return find(a) != find(b) ? find(a) < find(b) : a < b; });
