@@ -394,13 +394,13 @@ inline Verdict outcomeVerdict(PatchOutcome o) {
 // convex (that triangle behind this one's plane). Across a convex crease
 // the surface's normals are those between the two faces' (the edge's
 // Voronoi region, reference §4); past n2 an axis is no push the surface
-// gives there: markPlanePushes has the face part stand in. (A box with an
-// edge along a ridge's apex, 30-degree slopes: each slope's triangles chose
-// the box's 45-degree side face, and one slope's contacts, tied with the
-// other's and met first, voided them: the box was pushed off the ridge
-// sideways, 15 degrees outside the apex's normals.) The 3 degrees are
-// kStandInCosine's: within them, N is the other face's normal to the
-// tessellation's noise.
+// gives there: markPlanePushes has the face part stand in, or drops the
+// patch. (A box with an edge along a ridge's apex, 30-degree slopes: each
+// slope's triangles chose the box's 45-degree side face, and one slope's
+// contacts, tied with the other's and met first, voided them: the box was
+// pushed off the ridge sideways, 15 degrees outside the apex's normals.)
+// The 3 degrees are kStandInCosine's: within them, N is the other face's
+// normal to the tessellation's noise.
 inline bool pointsBeyondCrease(const Vec3& a, const Vec3& b, const Vec3& n, const Vec3& n2, const Vec3* w2,
                                const Vec3& N) {
   const Vec3 d = normalizedOr(b - a, Vec3::Zero());
@@ -530,7 +530,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
       // beside an 80-degree wall's top got a face part 0.1 deep from a
       // ledge triangle whose tilted patch was barely touching, and was
       // pushed up onto the ledge; a box edge-down on a 30-degree ridge needs
-      // 1.16. Cliffs' tests pass up to 6.)
+      // 1.16. BoxFigures.Cliff passes with up to 6 and fails from 10.)
       double own = 0.0;
       for (int k = 0; k < p.count; ++k) own = std::max(own, p.depths[k]);
       p.plane_push = p.face_push <= 2.0 * own ? PlanePush::kFace : PlanePush::kNone;

@@ -501,6 +501,32 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   dGeomDestroy(sphere);
 }
 
+// One trial of the group memo tests (2 x 2 tiles, a sphere around their
+// shared corner): the sphere of radius 0.3 at `c`, the tiles at the origin,
+// the first pair (the first tile) filling the thread's memos, then one input
+// changed, by trial % 5: none, a member sinking 1 mm, the sphere moving 1 mm
+// or growing by 1 mm, the settings toggling the filter (without it, every
+// touched triangle gives its closest-point contact, and the triangle filter
+// rejects only back-facing and degenerate ones); after the settings change
+// the first pair fills the memos again, at the new settings.
+void changeOneGroupInput(const std::vector<dGeomID>& geoms, dGeomID sphere, const Vec3& c, int trial) {
+  dGeomSphereSetRadius(sphere, 0.3);
+  dGeomSetPosition(sphere, c.x(), c.y(), c.z());
+  for (dGeomID g : geoms) dGeomSetPosition(g, 0.0, 0.0, 0.0);
+  dContactGeom first[32];
+  dCollide(geoms[0], sphere, 32, first, sizeof(dContactGeom));
+  const int change = trial % 5;
+  if (change == 1) dGeomSetPosition(geoms[1 + trial % 3], 0.0, 0.0, -1e-3);
+  if (change == 2) dGeomSetPosition(sphere, c.x(), c.y(), c.z() - 1e-3);
+  if (change == 3) dGeomSphereSetRadius(sphere, 0.3 + 1e-3);
+  if (change == 4) {
+    ode::Settings settings = ode::currentSettings();
+    settings.query.filter = (trial / 5) % 2 == 0 ? FilterMode::kNone : FilterMode::kVoidedFeatures;
+    EXPECT_TRUE(ode::setSettings(settings).isOk());
+    dCollide(geoms[0], sphere, 32, first, sizeof(dContactGeom));
+  }
+}
+
 // The override's pairs with the members of a group reuse the group query
 // of the pair before when its inputs are the same (GroupQueryMemo): every
 // pair must still give what collideWithGroup (which never reuses) gives for
@@ -518,22 +544,7 @@ TEST(OdeConventions, GroupPairsAfterAnyChangeAreTheGroupQuerysContacts) {
   int checked = 0, several = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const Vec3 c{1.0 + rng.uniform(-0.25, 0.25), 1.0 + rng.uniform(-0.25, 0.25), rng.uniform(0.05, 0.3)};
-    dGeomSphereSetRadius(sphere, 0.3);
-    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
-    for (dGeomID g : geoms) dGeomSetPosition(g, 0.0, 0.0, 0.0);
-    // The first pair fills the memo; then one input changes (or none).
-    dContactGeom first[16];
-    dCollide(geoms[0], sphere, 16, first, sizeof(dContactGeom));
-    const int change = trial % 5;
-    if (change == 1) dGeomSetPosition(geoms[1 + trial % 3], 0.0, 0.0, -1e-3);  // a member sinks 1 mm
-    if (change == 2) dGeomSetPosition(sphere, c.x(), c.y(), c.z() - 1e-3);
-    if (change == 3) dGeomSphereSetRadius(sphere, 0.3 + 1e-3);
-    if (change == 4) {
-      ode::Settings settings = ode::currentSettings();
-      // Without the filter: every touched triangle's closest-point contact.
-      settings.query.filter = (trial / 5) % 2 == 0 ? FilterMode::kNone : FilterMode::kVoidedFeatures;
-      ASSERT_TRUE(ode::setSettings(settings).isOk());
-    }
+    changeOneGroupInput(geoms, sphere, c, trial);
     dContactGeom all[64];
     const int n_all = ode::collideWithGroup(sphere, geoms.data(), 4, 64, all, sizeof(dContactGeom));
     int pairs_with_contacts = 0;
@@ -786,23 +797,7 @@ TEST(OdeConventions, TriangleFilterGroupPairsAfterAnyChangeAreFreshQueries) {
   int checked = 0, several = 0, filtered_away = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const Vec3 c{1.0 + rng.uniform(-0.25, 0.25), 1.0 + rng.uniform(-0.25, 0.25), rng.uniform(0.05, 0.3)};
-    dGeomSphereSetRadius(sphere, 0.3);
-    dGeomSetPosition(sphere, c.x(), c.y(), c.z());
-    for (dGeomID g : geoms) dGeomSetPosition(g, 0.0, 0.0, 0.0);
-    // The first pair fills the memos; then one input changes (or none).
-    dContactGeom first[32];
-    dCollide(geoms[0], sphere, 32, first, skip);
-    const int change = trial % 5;
-    if (change == 1) dGeomSetPosition(geoms[1 + trial % 3], 0.0, 0.0, -1e-3);  // a member sinks 1 mm
-    if (change == 2) dGeomSetPosition(sphere, c.x(), c.y(), c.z() - 1e-3);
-    if (change == 3) dGeomSphereSetRadius(sphere, 0.3 + 1e-3);
-    if (change == 4) {
-      ode::Settings settings = ode::currentSettings();
-      // Without the filter: only back-facing and degenerate triangles go.
-      settings.query.filter = (trial / 5) % 2 == 0 ? FilterMode::kNone : FilterMode::kVoidedFeatures;
-      ASSERT_TRUE(ode::setSettings(settings).isOk());
-      dCollide(geoms[0], sphere, 32, first, skip);  // the memos again, at the new settings
-    }
+    changeOneGroupInput(geoms, sphere, c, trial);
     std::array<std::array<dContactGeom, 32>, 4> got{};
     std::array<int, 4> n{};
     for (int k = 0; k < 4; ++k) n[k] = dCollide(geoms[k], sphere, 32, got[k].data(), skip);

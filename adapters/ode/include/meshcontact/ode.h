@@ -132,7 +132,9 @@ struct Settings {
 /// angle, a key or filter mode none of its enum's, unknown bits in
 /// `shapes`; called before dInitODE2() or after dCloseODE(), where ODE's
 /// own assertion would end the process: nothing is installed and the
-/// settings are not changed).
+/// settings are not changed). Call it while no other thread uses ODE: it
+/// swaps ODE's debug handler (dSetDebugHandler) for the call, to catch
+/// that assertion, and restores yours.
 Status installColliders(const Settings& settings = Settings(), unsigned* installed = nullptr);
 
 /// Sets the settings without installing colliders (for the triangle filter
