@@ -35,9 +35,11 @@ namespace {
 // thread's view: looked up under the registry's lock on the view's first use
 // of the key, then held by the view (a raw pointer, so that threads sharing
 // a group or hull do not count references on one shared block per query).
-template <class Key, class Value>
+// `read` gives the value from the registry's entry (a group's: through the
+// members' slot, GroupSlot).
+template <class Key, class Value, class Entry, class Read>
 const Value* viewLookup(std::vector<std::pair<Key, std::shared_ptr<const Value>>>& seen,
-                        const std::unordered_map<Key, std::shared_ptr<const Value>>& registry_map, Key key) {
+                        const std::unordered_map<Key, Entry>& registry_map, Key key, Read read) {
   for (const auto& [k, value] : seen)
     if (k == key) return value.get();
   std::shared_ptr<const Value> value;
@@ -45,7 +47,7 @@ const Value* viewLookup(std::vector<std::pair<Key, std::shared_ptr<const Value>>
     Registry& r = Registry::get();
     std::lock_guard<std::mutex> lock(r.mutex);
     auto it = registry_map.find(key);
-    if (it != registry_map.end()) value = it->second;
+    if (it != registry_map.end()) value = read(it->second);
   }
   const Value* raw = value.get();
   seen.emplace_back(key, std::move(value));
@@ -101,7 +103,8 @@ Status describeShape(dGeomID shape, ThreadContext& ctx, ShapeQuery& out) {
       return Status::ok();
     }
     case dConvexClass: {
-      const ConvexHull* hull = viewLookup(ctx.view.hulls, Registry::get().hulls, shape);
+      const ConvexHull* hull =
+          viewLookup(ctx.view.hulls, Registry::get().hulls, shape, [](const auto& entry) { return entry; });
       if (!hull)
         return {ErrorCode::kInvalidShape,
                 "convex geom was not registered (ODE does not publish its points: call "
@@ -176,19 +179,8 @@ void clearInstances(ThreadContext& ctx) {
 const Group* groupOf(dGeomID trimesh, ThreadContext& ctx) {
   // No group registered at the view's generation: no lookup at all.
   if (!ctx.view.any_group) return nullptr;
-  for (const auto& [geom, group] : ctx.view.groups)
-    if (geom == trimesh) return group.get();
-  // As viewLookup, through the member's slot (GroupSlot).
-  std::shared_ptr<const Group> group;
-  {
-    Registry& r = Registry::get();
-    std::lock_guard<std::mutex> lock(r.mutex);
-    auto it = r.groups.find(trimesh);
-    if (it != r.groups.end()) group = it->second->group;
-  }
-  const Group* raw = group.get();
-  ctx.view.groups.emplace_back(trimesh, std::move(group));
-  return raw;
+  return viewLookup(ctx.view.groups, Registry::get().groups, trimesh,
+                    [](const std::shared_ptr<GroupSlot>& slot) { return slot->group; });
 }
 
 Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& settings, ThreadContext& ctx,
