@@ -829,6 +829,76 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
   EXPECT_EQ(lines, 3 * 180);
 }
 
+// The deep path's figure of the same: a cylinder on its side and a box hull
+// lying flat, sunk past their margins (the core shrunk toward its center:
+// its side line is half as long, its bottom face a quarter of the area) into
+// a welded floor of 0.5 cells with random diagonals and into a floor of
+// separate tiles. Each triangle under the rest of the shape's supporting
+// face got the scaled core's edge or vertex patch, voided by its
+// neighbours; now its face part goes on from their face contacts
+// (convex.cpp, withFacePart). Every contact is the floor's, at the sink's
+// depth, and the contacts span the whole supporting face: the core's line
+// from end to end, the core's bottom rectangle corner to corner. Before,
+// 229 and 230 of the 300 cylinders (welded floor, tiles) and 105 and 82 of
+// the 300 hulls kept a shorter line or a smaller rectangle.
+TEST(ConvexScenes, ASupportingFaceSunkPastTheMarginKeepsItsExtent) {
+  const CylinderShape cylinder(Cylinder{0.2, 0.5});
+  const Vec3 h(0.4, 0.3, 0.1);
+  const ConvexHull hull = boxHull(h);
+  const TriangleMesh welded = testing::buildMesh(scenes::flatFloor(16, 16, 0.5, 61));
+  std::vector<TriangleMesh> tiles;
+  for (const SceneMesh& t : scenes::tiledFloor(4, 4, 4, 0.5, 62)) tiles.push_back(testing::buildMesh(t));
+  std::vector<MeshInstance> tile_instances;
+  for (const TriangleMesh& t : tiles) tile_instances.push_back({&t, Pose::identity()});
+  const MeshInstance welded_instance{&welded, Pose::identity()};
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  settings.reduce_manifold = false;  // every patch's points
+  QueryScratch scratch;
+  std::vector<Contact> contacts;
+  scenes::Rng rng(63);
+  for (const bool is_cylinder : {true, false}) {
+    const SupportShape& shape = is_cylinder ? static_cast<const SupportShape&>(cylinder) : hull;
+    const double m = shape.margin();
+    for (const bool separate_tiles : {false, true}) {
+      const std::string what = std::string(is_cylinder ? "cylinder" : "box hull") +
+                               (separate_tiles ? " on the tiles" : " on the welded floor");
+      int short_extent = 0;
+      const int placements = testing::scaled(300);
+      for (int i = 0; i < placements; ++i) {
+        const double sink = rng.uniform(1.1 * m, 0.05);
+        const Mat3 yaw = Eigen::AngleAxisd(rng.uniform(0.0, M_PI), Vec3::UnitZ()).toRotationMatrix();
+        Pose pose;
+        // The cylinder's axis (local z) horizontal; the hull's bottom face down.
+        pose.rotation = is_cylinder ? Mat3(yaw * Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX())) : yaw;
+        const double half_height = is_cylinder ? cylinder.cylinder().radius : h.z();
+        pose.translation = Vec3(rng.uniform(2.0, 6.0), rng.uniform(2.0, 6.0), half_height - sink);
+        const MeshInstance* instances = separate_tiles ? tile_instances.data() : &welded_instance;
+        const std::size_t count = separate_tiles ? tile_instances.size() : 1;
+        ASSERT_TRUE(collideConvex(instances, count, shape, pose, settings, scratch, contacts).isOk());
+        // The contacts' extent in the shape's frame: along the cylinder's
+        // axis (local z), over the hull's bottom (local x and y).
+        Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+        for (const Contact& c : contacts) {
+          ASSERT_LT(degreesBetween(c.normal, kUp), 1e-9) << what << " placement " << i;
+          ASSERT_NEAR(c.depth, sink, 1e-9) << what << " placement " << i;
+          const Vec3 local = pose.rotation.transpose() * (c.point - pose.translation);
+          lo = lo.cwiseMin(local), hi = hi.cwiseMax(local);
+        }
+        ASSERT_FALSE(contacts.empty()) << what << " placement " << i;
+        const double tol = 1e-9;
+        const bool whole = is_cylinder ? lo.z() <= -(0.5 - m) + tol && hi.z() >= 0.5 - m - tol
+                                       : lo.x() <= -(h.x() - m) + tol && hi.x() >= h.x() - m - tol &&
+                                             lo.y() <= -(h.y() - m) + tol && hi.y() >= h.y() - m - tol;
+        if (!whole && short_extent++ < 3)
+          ADD_FAILURE() << what << " placement " << i << ", sunk " << sink << ": contacts from " << str(lo) << " to "
+                        << str(hi) << "; pose " << str(pose.translation);
+      }
+      EXPECT_EQ(short_extent, 0) << what << ": " << short_extent << " of " << placements << " placements";
+    }
+  }
+}
+
 // A cylinder on its side, and a box hull lying flat, along a roof's ridge
 // (the one edge between two 45-degree slopes), held 0.001 into it or 0.01
 // above it (contact distance 0.02): the core's line along the edge is a

@@ -745,6 +745,9 @@ struct SideMonitor {
 // its code.
 template <bool kChecking>
 struct ConvexNarrowphase {
+  // A deep pass's edge and vertex patches carry face parts that stand in
+  // only where a face contact's plane goes on (withFacePart).
+  static constexpr bool kFacePartsContinueFaces = true;
   const SupportShape* shape;
   Pose pose;
   double margin;
@@ -769,6 +772,15 @@ struct ConvexNarrowphase {
   // The shape gives its core's nearest points (SupportShape::nearestCorePoint):
   // closest points by projection before GJK.
   bool projects = false;
+  // The shape's supporting face along -n (clippedSupportFace), in the query
+  // frame: the last normal's, kept. A floor's triangles share their normal,
+  // and a deep pass asks for it on every triangle under the shape.
+  struct SupportFaceCache {
+    Vec3 normal = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+    int count = 0;
+    Vec3 points[SupportShape::kMaxFacePoints];
+  };
+  mutable SupportFaceCache face_cache = {};
 
   // How far the core scaled by s may be from a triangle that the full shape
   // still reaches (see operator(): "Beyond reach").
@@ -832,7 +844,8 @@ struct ConvexNarrowphase {
     // The first pass notes the deeper passes this triangle certainly voids
     // (none when K is in front of the plane: so are its scaled copies).
     if (predict_intersection && scale == 1.0 && gap < 0.0)
-      if (const int bits = crossingBits(tri, n, low, high)) counters->void_deeper |= withinReachBits(bits, q, w, far_w);
+      if (const int bits = crossingBits(tri, n, low, [&] { return high; }))
+        counters->void_deeper |= withinReachBits(bits, q, w, far_w);
 
     // Deep pass: the face-ownership rule. The triangle under the full
     // shape's deepest point (its center in front of the plane) owns a face
@@ -845,7 +858,7 @@ struct ConvexNarrowphase {
       p.distance = plane_gap;
       return facePatch(tri, n, low_full - margin * n, true, p);
     }
-    if (scale == 0.0) return centerPatch(tri, n, low_full, p);
+    if (scale == 0.0) return withFacePart(tri, n, gap, centerPatch(tri, n, low_full, p), p);
 
     // Exact face: K's lowest point over the triangle's interior.
     if (gap > 0.0 && closestPointOnTriangle(low, a, b, c).feature.type == FeatureType::kFace) {
@@ -996,7 +1009,42 @@ struct ConvexNarrowphase {
       return PatchOutcome::kContact;
     }
     if (face) return facePatch(tri, n, low_full - margin * n, false, p);
-    return pointPatch(tri, u, p);
+    return withFacePart(tri, n, gap, pointPatch(tri, u, p), p);
+  }
+
+  // Deep pass: an edge or vertex patch carries the triangle's face part, the
+  // full shape's supporting face along -n clipped to the triangle's prism
+  // (clippedSupportFace), when the scaled core is in front of the plane
+  // (`gap`: its lowest point's height over it, as for the face-ownership
+  // rule). The scaled core is smaller than the shape: a cylinder lying on
+  // its side, sunk past its margin, has a scaled side line half as long,
+  // and each triangle under the rest of the line got the scaled core's
+  // edge or vertex patch, voided by its neighbours' face contacts: a line
+  // of 0.75 to 0.97 of its length kept, and a box-shaped hull's bottom with
+  // up to a quarter of its area lost (ConvexScenes.ASupportingFaceSunkPast
+  // TheMarginKeepsItsExtent: 229 of 300 cylinders and 105 of 300 hulls on a
+  // floor of 0.5 cells). The part is written only where a face contact of its
+  // plane ranked before it holds its feature or one of its edges
+  // (voided_features.h, FacePartsContinueFaces): it extends a face contact
+  // under the shape, never gives a new normal.
+  detail::PatchOutcome withFacePart(const Vec3 tri[3], const Vec3& n, double gap, detail::PatchOutcome outcome,
+                                    detail::Patch& p) const {
+    if (outcome != detail::PatchOutcome::kContact || p.feature.type == FeatureType::kFace) return outcome;
+    if (!(gap > 0.0) || !(n.dot(center - tri[0]) > 0.0)) return outcome;
+    Vec3 points[detail::kMaxClipPoints];
+    double depths[detail::kMaxClipPoints];
+    const int count = clippedSupportFace(tri, n, points, depths);
+    if (count < 0) return detail::PatchOutcome::kDegenerate;
+    if (count == 0) return outcome;
+    int keep[4] = {0, 1, 2, 3};
+    const int kept = count <= 4 ? count : detail::selectManifoldPoints(points, depths, count, n, size, keep);
+    p.face_normal = n;
+    p.face_count = kept;
+    for (int i = 0; i < kept; ++i) {
+      p.face_points[i] = points[keep[i]];
+      p.face_depths[i] = depths[keep[i]];
+    }
+    return outcome;
   }
 
   // The deeper passes (scales 1/2: bit 0, 1/4: bit 1) in which this
@@ -1008,20 +1056,37 @@ struct ConvexNarrowphase {
   // withinReachBits, the first test of operator(), from q and w as there
   // and the support along -w. The caller has tested the plane's reach (the
   // same at every scale).
-  int crossingBits(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, const Vec3& high_full) const {
+  // `high_full()`: the full core's support point along n, asked only when
+  // a pass's verdict needs it: the segment from the lowest point to the
+  // center crossing inside decides alone (the center is in the core, so
+  // the highest point is at least as high, and in front).
+  template <class HighFull>
+  int crossingBits(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, HighFull&& high_full) const {
     const Vec3& a = tri[0];
-    // The face-ownership rule returns before the shortcut in every deeper pass.
-    if (n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n)) return 0;
+    const double center_height = n.dot(center - a);
     int bits = 0;
+    bool have_high = false;
+    Vec3 high_point = Vec3::Zero();
     for (int k = 0; k < kSkippablePasses; ++k) {
       const double s = kPassScales[k + 1];
-      const Vec3 low = scaledAbout(center, s, low_full), high = scaledAbout(center, s, high_full);
+      const Vec3 low = scaledAbout(center, s, low_full);
       const double gap = n.dot(low - a);
       if (!(gap < 0.0)) continue;
+      if (crossesInside(tri, n, low, gap, center, center_height)) {
+        bits |= 1 << k;
+        continue;
+      }
+      if (!have_high) {
+        high_point = high_full();
+        have_high = true;
+      }
+      const Vec3 high = scaledAbout(center, s, high_point);
       const double top = n.dot(high - a);
       if (top < 0.0) continue;
-      if (clearlyIntersects(tri, n, low, gap, high, top)) bits |= 1 << k;
+      if (crossesInside(tri, n, low, gap, high, top)) bits |= 1 << k;
     }
+    // The face-ownership rule returns before the shortcut in every deeper pass.
+    if (bits != 0 && center_height > 0.0 && overTriangle(low_full, tri, n)) return 0;
     return bits;
   }
   int withinReachBits(int bits, const Vec3& q, const Vec3& w, const Vec3& far_w) const {
@@ -1045,7 +1110,14 @@ struct ConvexNarrowphase {
     const Vec3 low_full = full(-n);
     // In front of the plane, the core's scaled copies are too; the plane's reach.
     if (!(n.dot(low_full - a) < 0.0) || n.dot(low_full - a) - margin > contact_distance) return 0;
-    const int bits = crossingBits(tri, n, low_full, full(n));
+    // Two of crossingBits's zeros, known before the support along n: no
+    // scaled core's lowest point is behind the plane, or the triangle under
+    // the deepest point owns a face.
+    bool crosses = false;
+    for (int k = 0; k < kSkippablePasses; ++k)
+      crosses |= n.dot(scaledAbout(center, kPassScales[k + 1], low_full) - a) < 0.0;
+    if (!crosses || (n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n))) return 0;
+    const int bits = crossingBits(tri, n, low_full, [&] { return full(n); });
     if (bits == 0 || counters->support_not_finite) return 0;
     const Vec3 q = closestPointOnTriangle(center, a, b, c).point;
     const Vec3 w = normalizedOr(center - q, n);
@@ -1063,19 +1135,21 @@ struct ConvexNarrowphase {
   // its touching tolerance is 1e-10 of the size.
   bool clearlyIntersects(const Vec3 tri[3], const Vec3& n, const Vec3& low, double gap, const Vec3& high,
                          double top) const {
+    return crossesInside(tri, n, low, gap, high, top) || crossesInside(tri, n, low, gap, center, n.dot(center - tri[0]));
+  }
+  // The segment from `low` (gap below the plane) to `upper` (height above
+  // it) crosses the plane inside the triangle, both by the tolerance.
+  bool crossesInside(const Vec3 tri[3], const Vec3& n, const Vec3& low, double gap, const Vec3& upper,
+                     double height) const {
     const double tol = 1e-6 * size;
-    if (!(gap < -tol)) return false;
-    const auto crossesInside = [&](const Vec3& upper, double height) {
-      if (!(height > tol)) return false;
-      const Vec3 x = low + (-gap / (height - gap)) * (upper - low);
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 edge = tri[(k + 1) % 3] - tri[k];
-        // n x edge points into the triangle (counter-clockwise about n).
-        if (!(n.cross(edge).dot(x - tri[k]) > tol * edge.norm())) return false;
-      }
-      return true;
-    };
-    return crossesInside(high, top) || crossesInside(center, n.dot(center - tri[0]));
+    if (!(gap < -tol) || !(height > tol)) return false;
+    const Vec3 x = low + (-gap / (height - gap)) * (upper - low);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 edge = tri[(k + 1) % 3] - tri[k];
+      // n x edge points into the triangle (counter-clockwise about n).
+      if (!(n.cross(edge).dot(x - tri[k]) > tol * edge.norm())) return false;
+    }
+    return true;
   }
 
   // Whether x projects along n into the closed triangle (edge planes
@@ -1249,62 +1323,111 @@ struct ConvexNarrowphase {
     return detail::PatchOutcome::kContact;
   }
 
-  // A face patch along the triangle's normal n: the core's supporting face
-  // along -n clipped to the triangle's prism and moved out by the margin
-  // onto the shape's surface, each point with its own depth. The witness (a
-  // deepest point of the shape, over the triangle when `witness_over` holds)
-  // is added when the clip misses it or is empty.
-  detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, const Vec3& witness, bool witness_over,
-                                 detail::Patch& p) const {
+  // The shape's supporting face along -n (the core's supportFace, moved out
+  // by the margin onto the shape's surface) clipped to the triangle's
+  // prism: the points within reach of its plane, each with its depth along
+  // n. Returns how many (at most kMaxClipPoints), or -1 when a point is not
+  // finite (the shape's error, noted in the counters).
+  int clippedSupportFace(const Vec3 tri[3], const Vec3& n, Vec3* points, double* depths) const {
     const Vec3& a = tri[0];
-    p.feature = Feature::face();
-    p.normal = n;
-    Vec3 local[SupportShape::kMaxFacePoints];
-    int k = shape->supportFace(pose.rotation.transpose() * -n, local);
-    if (k < 1) {  // against its contract (1..kMaxFacePoints): its support point, not an unwritten one
-      local[0] = shape->support(pose.rotation.transpose() * -n);
-      k = 1;
+    SupportFaceCache& cache = face_cache;
+    if (!(n == cache.normal)) {
+      Vec3 local[SupportShape::kMaxFacePoints];
+      int k = shape->supportFace(pose.rotation.transpose() * -n, local);
+      if (k < 1) {  // against its contract (1..kMaxFacePoints): its support point, not an unwritten one
+        local[0] = shape->support(pose.rotation.transpose() * -n);
+        k = 1;
+      }
+      k = std::min(k, SupportShape::kMaxFacePoints);
+      bool finite = true;
+      for (int i = 0; i < k; ++i) {
+        cache.points[i] = pose.apply(local[i]) - margin * n;
+        finite &= cache.points[i].allFinite();
+      }
+      if (!finite) {
+        counters->support_not_finite = true;
+        return -1;
+      }
+      cache.normal = n;
+      cache.count = k;
     }
-    k = std::min(k, SupportShape::kMaxFacePoints);
+    int k = cache.count;
     const Vec3 e1 = (tri[1] - a).normalized();
     const Vec3 e2 = n.cross(e1);
     detail::FacePoint poly[SupportShape::kMaxFacePoints];
-    bool finite = true;
     for (int i = 0; i < k; ++i) {
-      const Vec3 q = pose.apply(local[i]) - margin * n;
-      finite &= q.allFinite();
-      poly[i].p = q;
-      poly[i].x = e1.dot(q - a);
-      poly[i].y = e2.dot(q - a);
+      poly[i].p = cache.points[i];
+      poly[i].x = e1.dot(cache.points[i] - a);
+      poly[i].y = e2.dot(cache.points[i] - a);
     }
-    if (!finite || !witness.allFinite()) {
-      counters->support_not_finite = true;
-      return detail::PatchOutcome::kDegenerate;
-    }
-    if (k >= 3) k = detail::convexHull2d(poly, k);
     double tri2d[3][2];
-    double magnitude = 0.0;
+    double tri_magnitude = 0.0;
     for (int i = 0; i < 3; ++i) {
       tri2d[i][0] = e1.dot(tri[i] - a);
       tri2d[i][1] = e2.dot(tri[i] - a);
-      magnitude = std::max(magnitude, tri[i].cwiseAbs().maxCoeff());
+      tri_magnitude = std::max(tri_magnitude, tri[i].cwiseAbs().maxCoeff());
     }
+    // Most triangles a deep pass asks about lie beside the face, not under
+    // it: one of the triangle's edges has every point of the face outside
+    // it, beyond the clip's rounding (clipToTriangle's noise, here with the
+    // magnitude of all the face's points, at least the clip's), and the clip
+    // is empty.
+    double all_magnitude = tri_magnitude;
+    for (int i = 0; i < k; ++i) all_magnitude = std::max(all_magnitude, poly[i].p.cwiseAbs().maxCoeff());
+    for (int e = 0; e < 3; ++e) {
+      const double px = tri2d[e][0], py = tri2d[e][1];
+      const double ex = tri2d[(e + 1) % 3][0] - px, ey = tri2d[(e + 1) % 3][1] - py;
+      bool outside = true;
+      for (int i = 0; i < k && outside; ++i) {
+        const double v = ex * (poly[i].y - py) - ey * (poly[i].x - px);
+        const double noise = 0x1p-40 * (std::abs(ex) + std::abs(ey)) *
+                             (std::abs(poly[i].x - px) + std::abs(poly[i].y - py) + all_magnitude);
+        outside = v < -noise;
+      }
+      if (outside) return 0;
+    }
+    if (k >= 3) k = detail::convexHull2d(poly, k);
+    double magnitude = tri_magnitude;
     for (int i = 0; i < k; ++i) magnitude = std::max(magnitude, poly[i].p.cwiseAbs().maxCoeff());
     detail::FacePoint clipped[detail::kMaxClipPoints];
     const int m = detail::clipToTriangle(poly, k, tri2d, magnitude, clipped);
-    Vec3 points[detail::kMaxClipPoints + 1];
-    double depths[detail::kMaxClipPoints + 1];
     int count = 0;
-    double deepest = -std::numeric_limits<double>::infinity();
     for (int i = 0; i < m; ++i) {
       const double d = n.dot(a - clipped[i].p);
       if (d < -contact_distance) continue;  // this part of the face is beyond reach
       points[count] = clipped[i].p;
       depths[count] = d;
-      deepest = std::max(deepest, d);
       ++count;
     }
-    const double witness_depth = n.dot(a - witness);
+    return count;
+  }
+
+  // A face patch along the triangle's normal n: the shape's supporting face
+  // along -n clipped to the triangle's prism (clippedSupportFace), each point
+  // with its own depth. The witness (a deepest point of the shape, over the
+  // triangle when `witness_over` holds) is added when the clip misses it or
+  // is empty.
+  detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, const Vec3& witness, bool witness_over,
+                                 detail::Patch& p) const {
+    Vec3 points[detail::kMaxClipPoints + 1];
+    double depths[detail::kMaxClipPoints + 1];
+    const int count = clippedSupportFace(tri, n, points, depths);
+    if (count < 0) return detail::PatchOutcome::kDegenerate;
+    return facePatch(tri, n, points, depths, count, witness, witness_over, p);
+  }
+  // The same, from the clip: `points` and `depths` hold `count` points and
+  // room for one more (the witness).
+  detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, Vec3* points, double* depths, int count,
+                                 const Vec3& witness, bool witness_over, detail::Patch& p) const {
+    p.feature = Feature::face();
+    p.normal = n;
+    if (!witness.allFinite()) {
+      counters->support_not_finite = true;
+      return detail::PatchOutcome::kDegenerate;
+    }
+    double deepest = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < count; ++i) deepest = std::max(deepest, depths[i]);
+    const double witness_depth = n.dot(tri[0] - witness);
     if (count == 0 || (witness_over && witness_depth > deepest + 1e-9 * size)) {
       points[count] = witness;
       depths[count] = witness_depth;

@@ -50,6 +50,10 @@
 //     normal is its own (to round-off) is that contact going on across the
 //     mesh's edges (a box lying along a ridge's apex: one line contact over
 //     several apex segments): written, not dropped.
+//   - a narrowphase may instead write its face parts only where they
+//     continue a face contact of their plane (FacePartsContinueFaces, the
+//     support shapes' deep passes): in the patch's place, or beside it when
+//     the patch is kept; never a plane no face contact has.
 // "Voiding a triangle" adds its three vertex keys and three edge keys to V;
 // an edge is voided iff some triangle in V contains it, a vertex iff some
 // triangle in V contains it (§4b, §4c).
@@ -145,6 +149,22 @@ template <class N, class = void>
 struct FacePartsStandIn : std::false_type {};
 template <class N>
 struct FacePartsStandIn<N, std::enable_if_t<std::decay_t<N>::kFacePartsStandIn>> : std::true_type {};
+
+/// A narrowphase whose face parts are written only where a face contact of
+/// the same plane goes on (static constexpr bool kFacePartsContinueFaces =
+/// true; the support shapes' deep passes, see convex.cpp, withFacePart): a
+/// face part is written (in its patch's place when the patch is voided,
+/// beside it when kept) when a face contact ranked before it, its normal
+/// within kStandInCosine of the part's, holds the patch's feature or one of
+/// the triangle's edges; otherwise it is dropped. Such queries meet their
+/// delayed patches in rank order when one has a face part (a part written
+/// then holds for the patches ranked after it). The box's tilted-axis tests
+/// (markPlanePushes) are not run: the patch under a part is the scaled
+/// core's, not a push of its own.
+template <class N, class = void>
+struct FacePartsContinueFaces : std::false_type {};
+template <class N>
+struct FacePartsContinueFaces<N, std::enable_if_t<std::decay_t<N>::kFacePartsContinueFaces>> : std::true_type {};
 
 /// Where a contact's triangle stands in the §5 processing order: face
 /// contacts first (distance -inf: their order among themselves does not
@@ -636,6 +656,8 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
                       std::vector<Contact>& contacts) {
   constexpr bool deferred = DefersEdgesAndVertices<Narrowphase>::value;
   constexpr bool stand_in_parts = FacePartsStandIn<Narrowphase>::value;
+  constexpr bool continuing_parts = FacePartsContinueFaces<Narrowphase>::value;
+  static_assert(!(stand_in_parts && continuing_parts), "one face-part rule per narrowphase");
   const bool filter = settings.filter == FilterMode::kVoidedFeatures;
   std::vector<TraceEntry>* trace = settings.trace;
   if (trace) trace->clear();
@@ -672,8 +694,8 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!filter && p.feature.type != FeatureType::kFace) narrowphase.finish(c, p);  // kept as it comes
     }
     const bool face = p.feature.type == FeatureType::kFace || !filter;
+    if constexpr (stand_in_parts || continuing_parts) stand_ins |= !face && p.face_count > 0;
     if constexpr (stand_in_parts) {
-      stand_ins |= !face && p.face_count > 0;
       p.plane_push = PlanePush::kOwn;
       p.kept = face;
     }
@@ -693,7 +715,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   // FacePartsStandIn narrowphase (the box), whose patches depend on what
   // the patches ranked before them became (a face part standing in, a
   // contact going on, below), which must not depend on the midphase's order.
-  if (stand_in_parts) std::sort(s.delayed.begin(), s.delayed.end());
+  if (stand_in_parts || (continuing_parts && stand_ins)) std::sort(s.delayed.begin(), s.delayed.end());
   if constexpr (stand_in_parts) {
     if (stand_ins) markPlanePushes(candidates, s, identity, narrowphase);
   }
@@ -743,6 +765,35 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       if (!voided && !(p.face_push < std::numeric_limits<double>::infinity())) stand_in = true;
       stand_in = p.plane_push == PlanePush::kFace || (stand_in && p.plane_push == PlanePush::kOwn);
       if (!stand_in) p.face_count = 0;
+    }
+    if (continuing_parts && p.face_count > 0) {
+      // The face contact goes on onto this triangle across its feature or
+      // any of its edges: the scaled core's closest feature may face away
+      // from the part (a cylinder's side line crossing the triangle beyond
+      // the scaled core's end, its closest edge shared with a triangle the
+      // line misses). So a part only ever extends a plane that a face
+      // contact already has. Whether the patch itself is voided does not
+      // matter: of two triangles equally near along their shared edge, the
+      // one ranked first keeps the edge contact, and the part of the other
+      // would otherwise come and go with that rounding.
+      // A holder's written face: its face contact, or its part written
+      // beside its kept patch (met before this one: rank order).
+      const Vec3 normal = p.face_normal;
+      const auto coplanar_face = [&](const SortItem& r) {
+        const Patch& q = s.patches[r.patch];
+        return (q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= kStandInCosine) ||
+               (q.face_count > 0 && q.face_normal.dot(normal) >= kStandInCosine);
+      };
+      bool goes_on = false;
+      for (int k = -1; k < 3 && !goes_on; ++k) {
+        if (k == p.feature.index && p.feature.type == FeatureType::kEdge) continue;  // tested as k = -1
+        const Feature f = k < 0 ? p.feature : Feature::edge(k);
+        const int i = f.index;
+        goes_on = s.voided.isHeldBefore(f.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);
+        if (!goes_on && identity == VertexIdentity::kKeysOrPositions)
+          goes_on = heldByPosition(candidates, s, f, c, item, positions_built, coplanar_face);
+      }
+      if (!goes_on) p.face_count = 0;
     }
     const bool face_only = (voided || stand_in_parts) && p.face_count > 0;
     if (stand_in_parts && voided && !face_only && p.plane_push != PlanePush::kNone) {
