@@ -1022,7 +1022,7 @@ struct ConvexNarrowphase {
   // edge or vertex patch, voided by its neighbours' face contacts: a line
   // of 0.75 to 0.97 of its length kept, and a box-shaped hull's bottom with
   // up to a quarter of its area lost (ConvexScenes.ASupportingFaceSunkPast
-  // TheMarginKeepsItsExtent: 229 of 300 cylinders and 105 of 300 hulls on a
+  // TheMarginKeepsItsExtent: 229 of 300 cylinders and 89 of 300 hulls on a
   // floor of 0.5 cells). The part is written only where a face contact of its
   // plane ranked before it holds its feature or one of its edges
   // (voided_features.h, FacePartsContinueFaces): it extends a face contact
