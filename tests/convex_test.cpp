@@ -832,17 +832,17 @@ TEST(ConvexScenes, ALineContactOverAnInternalEdgeKeepsItsLength) {
 // The deep path's figure of the same: a cylinder on its side and a box hull
 // lying flat, sunk past their margins (the core shrunk toward its center:
 // its side line is half as long, its bottom face a quarter of the area) into
-// a welded floor of 0.5 cells with random diagonals and into a floor of
+// a welded floor of 0.5 cells with random diagonals, into a floor of
 // separate tiles, and into the welded floor's triangle soup (an STL file's:
-// every vertex duplicated) with position keys. Each triangle under the
-// rest of the shape's supporting
-// face got the scaled core's edge or vertex patch, voided by its
-// neighbours; now its face part goes on from their face contacts
-// (convex.cpp, withFacePart). Every contact is the floor's, at the sink's
-// depth, and the contacts span the whole supporting face: the core's line
-// from end to end, the core's bottom rectangle corner to corner. Before,
-// 229, 230 and 225 of the 300 cylinders (welded floor, tiles, soup) and 89,
-// 92 and 88 of the 300 hulls kept a shorter line or a smaller rectangle.
+// every vertex duplicated) with position keys. Each triangle under the rest
+// of the shape's supporting face got the scaled core's edge or vertex
+// patch, voided by its neighbours; now its face part goes on from their
+// face contacts (convex.cpp, withFacePart). Every contact is the floor's,
+// at the sink's depth, and the contacts span the whole supporting face: the
+// core's line from end to end, the core's bottom rectangle corner to
+// corner. Before, 229, 230 and 225 of the 300 cylinders (welded floor,
+// tiles, soup) and 89, 92 and 88 of the 300 hulls kept a shorter line or a
+// smaller rectangle.
 TEST(ConvexScenes, ASupportingFaceSunkPastTheMarginKeepsItsExtent) {
   const CylinderShape cylinder(Cylinder{0.2, 0.5});
   const Vec3 h(0.4, 0.3, 0.1);
@@ -894,7 +894,8 @@ TEST(ConvexScenes, ASupportingFaceSunkPastTheMarginKeepsItsExtent) {
         }
         ASSERT_FALSE(contacts.empty()) << what << " placement " << i;
         const double tol = 1e-9;
-        const bool whole = is_cylinder ? lo.z() <= -(0.5 - m) + tol && hi.z() >= 0.5 - m - tol
+        const double half_line = cylinder.cylinder().half_length - m;
+        const bool whole = is_cylinder ? lo.z() <= -half_line + tol && hi.z() >= half_line - tol
                                        : lo.x() <= -(h.x() - m) + tol && hi.x() >= h.x() - m - tol &&
                                              lo.y() <= -(h.y() - m) + tol && hi.y() >= h.y() - m - tol;
         if (!whole && short_extent++ < 3)

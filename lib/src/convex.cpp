@@ -745,8 +745,8 @@ struct SideMonitor {
 // its code.
 template <bool kChecking>
 struct ConvexNarrowphase {
-  // A deep pass's edge and vertex patches carry face parts that stand in
-  // only where a face contact's plane goes on (withFacePart).
+  // A deep pass's edge and vertex patches carry face parts, written only
+  // where they continue a face contact of their plane (withFacePart).
   static constexpr bool kFacePartsContinueFaces = true;
   const SupportShape* shape;
   Pose pose;
@@ -1135,7 +1135,8 @@ struct ConvexNarrowphase {
   // its touching tolerance is 1e-10 of the size.
   bool clearlyIntersects(const Vec3 tri[3], const Vec3& n, const Vec3& low, double gap, const Vec3& high,
                          double top) const {
-    return crossesInside(tri, n, low, gap, high, top) || crossesInside(tri, n, low, gap, center, n.dot(center - tri[0]));
+    return crossesInside(tri, n, low, gap, high, top) ||
+           crossesInside(tri, n, low, gap, center, n.dot(center - tri[0]));
   }
   // The segment from `low` (gap below the plane) to `upper` (height above
   // it) crosses the plane inside the triangle, both by the tolerance.
@@ -1409,19 +1410,12 @@ struct ConvexNarrowphase {
   // is empty.
   detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, const Vec3& witness, bool witness_over,
                                  detail::Patch& p) const {
-    Vec3 points[detail::kMaxClipPoints + 1];
-    double depths[detail::kMaxClipPoints + 1];
-    const int count = clippedSupportFace(tri, n, points, depths);
-    if (count < 0) return detail::PatchOutcome::kDegenerate;
-    return facePatch(tri, n, points, depths, count, witness, witness_over, p);
-  }
-  // The same, from the clip: `points` and `depths` hold `count` points and
-  // room for one more (the witness).
-  detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, Vec3* points, double* depths, int count,
-                                 const Vec3& witness, bool witness_over, detail::Patch& p) const {
     p.feature = Feature::face();
     p.normal = n;
-    if (!witness.allFinite()) {
+    Vec3 points[detail::kMaxClipPoints + 1];  // room for the witness
+    double depths[detail::kMaxClipPoints + 1];
+    int count = clippedSupportFace(tri, n, points, depths);
+    if (count < 0 || !witness.allFinite()) {
       counters->support_not_finite = true;
       return detail::PatchOutcome::kDegenerate;
     }
