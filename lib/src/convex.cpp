@@ -1029,8 +1029,9 @@ struct ConvexNarrowphase {
   // under the shape, never gives a new normal.
   detail::PatchOutcome withFacePart(const Vec3 tri[3], const Vec3& n, double gap, detail::PatchOutcome outcome,
                                     detail::Patch& p) const {
-    if (outcome != detail::PatchOutcome::kContact || p.feature.type == FeatureType::kFace) return outcome;
-    if (!(gap > 0.0) || !(n.dot(center - tri[0]) > 0.0)) return outcome;
+    // (With the scaled core in front, so is its center.)
+    if (outcome != detail::PatchOutcome::kContact || p.feature.type == FeatureType::kFace || !(gap > 0.0))
+      return outcome;
     Vec3 points[detail::kMaxClipPoints];
     double depths[detail::kMaxClipPoints];
     const int count = clippedSupportFace(tri, n, points, depths);
@@ -1064,6 +1065,8 @@ struct ConvexNarrowphase {
   int crossingBits(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, HighFull&& high_full) const {
     const Vec3& a = tri[0];
     const double center_height = n.dot(center - a);
+    // The face-ownership rule returns before the shortcut in every deeper pass.
+    if (center_height > 0.0 && overTriangle(low_full, tri, n)) return 0;
     int bits = 0;
     bool have_high = false;
     Vec3 high_point = Vec3::Zero();
@@ -1085,8 +1088,6 @@ struct ConvexNarrowphase {
       if (top < 0.0) continue;
       if (crossesInside(tri, n, low, gap, high, top)) bits |= 1 << k;
     }
-    // The face-ownership rule returns before the shortcut in every deeper pass.
-    if (bits != 0 && center_height > 0.0 && overTriangle(low_full, tri, n)) return 0;
     return bits;
   }
   int withinReachBits(int bits, const Vec3& q, const Vec3& w, const Vec3& far_w) const {
@@ -1110,13 +1111,6 @@ struct ConvexNarrowphase {
     const Vec3 low_full = full(-n);
     // In front of the plane, the core's scaled copies are too; the plane's reach.
     if (!(n.dot(low_full - a) < 0.0) || n.dot(low_full - a) - margin > contact_distance) return 0;
-    // Two of crossingBits's zeros, known before the support along n: no
-    // scaled core's lowest point is behind the plane, or the triangle under
-    // the deepest point owns a face.
-    bool crosses = false;
-    for (int k = 0; k < kSkippablePasses; ++k)
-      crosses |= n.dot(scaledAbout(center, kPassScales[k + 1], low_full) - a) < 0.0;
-    if (!crosses || (n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n))) return 0;
     const int bits = crossingBits(tri, n, low_full, [&] { return full(n); });
     if (bits == 0 || counters->support_not_finite) return 0;
     const Vec3 q = closestPointOnTriangle(center, a, b, c).point;
