@@ -1327,22 +1327,17 @@ struct ConvexNarrowphase {
     const Vec3& a = tri[0];
     SupportFaceCache& cache = face_cache;
     if (!(n == cache.normal)) {
-      Vec3 local[SupportShape::kMaxFacePoints];
-      int k = shape->supportFace(pose.rotation.transpose() * -n, local);
+      int k = supportFacePoints(-n, cache.points);
+      if (counters->support_not_finite) return -1;
       if (k < 1) {  // against its contract (1..kMaxFacePoints): its support point, not an unwritten one
-        local[0] = shape->support(pose.rotation.transpose() * -n);
+        cache.points[0] = pose.apply(shape->support(pose.rotation.transpose() * -n));
+        if (!cache.points[0].allFinite()) {
+          counters->support_not_finite = true;
+          return -1;
+        }
         k = 1;
       }
-      k = std::min(k, SupportShape::kMaxFacePoints);
-      bool finite = true;
-      for (int i = 0; i < k; ++i) {
-        cache.points[i] = pose.apply(local[i]) - margin * n;
-        finite &= cache.points[i].allFinite();
-      }
-      if (!finite) {
-        counters->support_not_finite = true;
-        return -1;
-      }
+      for (int i = 0; i < k; ++i) cache.points[i] -= margin * n;
       cache.normal = n;
       cache.count = k;
     }
