@@ -723,14 +723,19 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
   for (const SortItem& item : s.delayed) {
     Patch& p = s.patches[item.patch];
     const CandidateTriangle& c = candidates[s.patch_candidate[item.patch]];
+    // Whether a triangle ranked before this patch, for which `holds`, holds
+    // feature f of its triangle: by key, then (where keys may miss a
+    // shared vertex) by position.
+    const auto heldBefore = [&](Feature f, const auto& holds) {
+      const int i = f.index;
+      if (s.voided.isHeldBefore(f.type, c.keys[i], c.keys[(i + 1) % 3], item, holds)) return true;
+      return identity == VertexIdentity::kKeysOrPositions &&
+             heldByPosition(candidates, s, f, c, item, positions_built, holds);
+    };
     bool voided;
     if (stand_in_parts && stand_ins) {  // a patch withdrawn by its plane voids nothing
       const auto holds = [&](const SortItem& r) { return s.patches[r.patch].plane_push != PlanePush::kNone; };
-      const int i = p.feature.index;
-      voided = p.plane_push == PlanePush::kNone ||
-               s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, holds);
-      if (!voided && identity == VertexIdentity::kKeysOrPositions)
-        voided = heldByPosition(candidates, s, p.feature, c, item, positions_built, holds);
+      voided = p.plane_push == PlanePush::kNone || heldBefore(p.feature, holds);
     } else {
       voided = s.voided.isVoidedBefore(p.feature, c.keys, item);
       if (!voided && identity == VertexIdentity::kKeysOrPositions)
@@ -748,15 +753,12 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       // ledge: none.
       bool stand_in = false;
       const Vec3 normal = p.face_normal;
-      const int i = p.feature.index;
       if (voided) {
         const auto coplanar_face = [&](const SortItem& r) {
           const Patch& q = s.patches[r.patch];
           return q.feature.type == FeatureType::kFace && q.normal.dot(normal) >= kStandInCosine;
         };
-        stand_in = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);
-        if (!stand_in && identity == VertexIdentity::kKeysOrPositions)
-          stand_in = heldByPosition(candidates, s, p.feature, c, item, positions_built, coplanar_face);
+        stand_in = heldBefore(p.feature, coplanar_face);
       }
       // A patch that is no push (infinite face_push: the box's separated
       // edge or vertex pair along the face's normal, box.cpp step 3) and is
@@ -787,11 +789,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       bool goes_on = false;
       for (int k = -1; k < 3 && !goes_on; ++k) {
         if (k == p.feature.index && p.feature.type == FeatureType::kEdge) continue;  // tested as k = -1
-        const Feature f = k < 0 ? p.feature : Feature::edge(k);
-        const int i = f.index;
-        goes_on = s.voided.isHeldBefore(f.type, c.keys[i], c.keys[(i + 1) % 3], item, coplanar_face);
-        if (!goes_on && identity == VertexIdentity::kKeysOrPositions)
-          goes_on = heldByPosition(candidates, s, f, c, item, positions_built, coplanar_face);
+        goes_on = heldBefore(k < 0 ? p.feature : Feature::edge(k), coplanar_face);
       }
       if (!goes_on) p.face_count = 0;
     }
@@ -816,11 +814,7 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
         const Patch& q = s.patches[r.patch];
         return q.kept && q.plane_push != PlanePush::kNone && q.normal.dot(own) >= 1.0 - 1e-12;
       };
-      const int i = p.feature.index;
-      bool goes_on = s.voided.isHeldBefore(p.feature.type, c.keys[i], c.keys[(i + 1) % 3], item, same_contact);
-      if (!goes_on && identity == VertexIdentity::kKeysOrPositions)
-        goes_on = heldByPosition(candidates, s, p.feature, c, item, positions_built, same_contact);
-      if (goes_on) voided = false;
+      if (heldBefore(p.feature, same_contact)) voided = false;
     }
     if constexpr (stand_in_parts) p.kept = !voided || face_only;
     if (face_only) {  // the patch becomes its face part
