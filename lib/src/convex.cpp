@@ -41,7 +41,11 @@
 //    (a) the triangle under the full shape's deepest point owns a face patch
 //        with that point (face-ownership rule: the scaled core's face
 //        triangle may be another one, whose patch alone would understate
-//        the depth);
+//        the depth), and so does, once the scaled core is found clear of
+//        it, any triangle under the shape's supporting face; but not a
+//        triangle the shape leaves sooner by moving within its plane (a
+//        cliff's wall under a box overhanging the brink: the ledge holds
+//        it);
 //    (b) a triangle within the scaled core's reach but whose projection
 //        along its normal does not reach the shape still goes through the
 //        filter, as a patch with no point: it is voided, and voids, in its
@@ -781,6 +785,14 @@ struct ConvexNarrowphase {
     Vec3 points[SupportShape::kMaxFacePoints];
   };
   mutable SupportFaceCache face_cache = {};
+  // A triangle's clip of the supporting face (clippedSupportFace), kept from
+  // the test that asked for it (underSupportingFace) for its face patch.
+  struct ClippedFace {
+    bool done = false;
+    int count = 0;
+    Vec3 points[detail::kMaxClipPoints];
+    double depths[detail::kMaxClipPoints];
+  };
 
   // How far the core scaled by s may be from a triangle that the full shape
   // still reaches (see operator(): "Beyond reach").
@@ -853,17 +865,26 @@ struct ConvexNarrowphase {
     // flat ground the scaled core's face triangle need not be the one under
     // the deepest point, and its patch (clipped to its own prism) would
     // understate the depth. Another face patch only voids more, never adds a
-    // ghost normal.
-    if (scale < 1.0 && n.dot(center - a) > 0.0 && overTriangle(low_full, tri, n)) {
+    // ghost normal. Not when the shape leaves the triangle sooner within its
+    // plane (ownsFace, leavesSoonerInPlane): a cliff's wall.
+    if (scale < 1.0 && ownsFace(tri, n, low_full)) {
       p.distance = plane_gap;
       return facePatch(tri, n, low_full - margin * n, true, p);
     }
-    if (scale == 0.0) return withFacePart(tri, n, gap, centerPatch(tri, n, low_full, p), p);
+    if (scale == 0.0) {
+      ClippedFace clipped;
+      if (underSupportingFace(tri, n, low_full, clipped)) {
+        p.distance = plane_gap;
+        return facePatch(tri, n, low_full - margin * n, false, p, &clipped);
+      }
+      return withFacePart(tri, n, gap, centerPatch(tri, n, low_full, p, &clipped), p, &clipped);
+    }
 
     // Exact face: K's lowest point over the triangle's interior.
     if (gap > 0.0 && closestPointOnTriangle(low, a, b, c).feature.type == FeatureType::kFace) {
       p.distance = gap - margin;
-      return facePatch(tri, n, low_full - margin * n, scale == 1.0, p);
+      if (scale < 1.0) return deepFacePatch(tri, n, n, gap, low_full, p);
+      return facePatch(tri, n, low_full - margin * n, true, p);
     }
 
     if (predict_intersection && gap < 0.0 && clearlyIntersects(tri, n, low, gap, high, top)) {
@@ -960,10 +981,24 @@ struct ConvexNarrowphase {
     }
     const Vec3 u = normalizedOr(g.v, n);
     p.distance = d - margin;  // the delayed pass's sort key: the same core for every triangle
-    if (u.dot(n) < 0.0) {
+    if (u.dot(n) < -1e-9) {
       // K's closest point is behind the plane: K reaches around the
       // triangle from its back, which a one-sided triangle does not have.
+      // Edge-on (u in the plane to GJK's ~1e-9 rad: K beside the edge, as
+      // on a cliff's brink over the wall's top edge) is not behind: the
+      // patch goes through the filter and voids the triangle's other edges
+      // in its turn. Culled on rounding's sign, it had left the wall
+      // triangle below with an edge contact tilted 45 degrees sideways
+      // (ConvexScenes.OverhangingACliffSunkPastTheMarginIsHeldByTheLedge).
       return PatchOutcome::kBackFacing;
+    }
+    // A deeper pass, the scaled core clear of the triangle (so this does not
+    // change which pass is taken): the triangle under the shape's supporting
+    // face owns a face patch too (underSupportingFace).
+    ClippedFace clipped;
+    if (scale < 1.0 && underSupportingFace(tri, n, low_full, clipped)) {
+      p.distance = plane_gap;
+      return facePatch(tri, n, low_full - margin * n, false, p, &clipped);
     }
     // Face when the distance is the plane's (only reached along n), or when
     // the triangle's support feature along u is its face.
@@ -1008,8 +1043,8 @@ struct ConvexNarrowphase {
         if (p.feature.type == FeatureType::kEdge) addLineEnds(tri, p.feature.index, u, g.point_a, p);
       return PatchOutcome::kContact;
     }
-    if (face) return facePatch(tri, n, low_full - margin * n, false, p);
-    return withFacePart(tri, n, gap, pointPatch(tri, u, p), p);
+    if (face) return deepFacePatch(tri, n, u, gap, low_full, p, &clipped);
+    return withFacePart(tri, n, gap, pointPatch(tri, u, p), p, &clipped);
   }
 
   // Deep pass: an edge or vertex patch carries the triangle's face part, the
@@ -1028,13 +1063,18 @@ struct ConvexNarrowphase {
   // (voided_features.h, FacePartsContinueFaces): it extends a face contact
   // under the shape, never gives a new normal.
   detail::PatchOutcome withFacePart(const Vec3 tri[3], const Vec3& n, double gap, detail::PatchOutcome outcome,
-                                    detail::Patch& p) const {
+                                    detail::Patch& p, const ClippedFace* clipped = nullptr) const {
     // (With the scaled core in front, so is its center.)
     if (outcome != detail::PatchOutcome::kContact || p.feature.type == FeatureType::kFace || !(gap > 0.0))
       return outcome;
-    Vec3 points[detail::kMaxClipPoints];
-    double depths[detail::kMaxClipPoints];
-    const int count = clippedSupportFace(tri, n, points, depths);
+    ClippedFace own;
+    if (clipped == nullptr || !clipped->done) {
+      own.count = clippedSupportFace(tri, n, own.points, own.depths);
+      clipped = &own;
+    }
+    const int count = clipped->count;
+    const Vec3* points = clipped->points;
+    const double* depths = clipped->depths;
     if (count < 0) return detail::PatchOutcome::kDegenerate;
     if (count == 0) return outcome;
     int keep[4] = {0, 1, 2, 3};
@@ -1066,7 +1106,7 @@ struct ConvexNarrowphase {
     const Vec3& a = tri[0];
     const double center_height = n.dot(center - a);
     // The face-ownership rule returns before the shortcut in every deeper pass.
-    if (center_height > 0.0 && overTriangle(low_full, tri, n)) return 0;
+    if (ownsFace(tri, n, low_full)) return 0;
     int bits = 0;
     bool have_high = false;
     Vec3 high_point = Vec3::Zero();
@@ -1155,16 +1195,88 @@ struct ConvexNarrowphase {
     return true;
   }
 
+  // Deep pass: whether the full shape leaves the triangle sooner by moving
+  // within the triangle's plane than along its normal n (by less than its
+  // depth below the plane, from `low_full`, its core's lowest point along
+  // -n). A box resting on a ledge and overhanging the cliff, sunk past its
+  // margin, reaches 0.1-0.3 behind the wall's plane, but leaves the wall's
+  // top triangles by rising its sink over their top edge: their face is not
+  // where the box is held, the ledge's is. (Each triangle alone: the
+  // filter's neighbours, not this, tell a cliff's brink from a floor's
+  // internal edge.) The directions tried: each edge's outward normal in the
+  // plane, and from each vertex the direction toward the shape's center in
+  // the plane (a wall triangle whose top is a vertex). Any direction gives an
+  // exit depth no less than the least one, so a miss keeps the face, the
+  // rule as it was. `direction`, when given: the first one found.
+  bool leavesSoonerInPlane(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, Vec3* direction = nullptr) const {
+    const PlacedCore full{shape, &pose.rotation, pose.translation, center, 1.0, counters};
+    const double face_depth = n.dot(tri[0] - low_full);  // both depths less the margin
+    const double tolerance = 1e-9 * size;
+    const auto sooner = [&](const Vec3& m) {
+      if (m == Vec3::Zero()) return false;
+      const double reach = std::max({m.dot(tri[0]), m.dot(tri[1]), m.dot(tri[2])});
+      // The center lies in the core, so the core reaches at least as far
+      // back along -m: a lower bound of the exit depth, without the support.
+      if (!(reach - m.dot(center) < face_depth - tolerance)) return false;
+      if (!(reach - m.dot(full(-m)) < face_depth - tolerance)) return false;
+      if (direction != nullptr) *direction = m;
+      return true;
+    };
+    for (int k = 0; k < 3; ++k) {
+      if (sooner(normalizedOr(Vec3((tri[(k + 1) % 3] - tri[k]).cross(n)), Vec3::Zero()))) return true;
+      const Vec3 to_center = center - tri[k];
+      if (sooner(normalizedOr(Vec3(to_center - n.dot(to_center) * n), Vec3::Zero()))) return true;
+    }
+    return false;
+  }
+
+  // The face-ownership rule (operator(), and crossingBits, which mirrors it).
+  bool ownsFace(const Vec3 tri[3], const Vec3& n, const Vec3& low_full) const {
+    return n.dot(center - tri[0]) > 0.0 && overTriangle(low_full, tri, n) && !leavesSoonerInPlane(tri, n, low_full);
+  }
+
+  // Deep pass: a triangle under any part of the shape's supporting face
+  // along -n (clippedSupportFace), not only under the point the support's
+  // tie-break picked (ownsFace), that the shape does not leave sooner within
+  // its plane. A box overhanging a cliff whose tie-break point lies beyond
+  // the brink: the ledge's triangles under the rest of its bottom. True as
+  // well for a support point that is not finite (facePatch reports it).
+  bool underSupportingFace(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, ClippedFace& clipped) const {
+    if (!(n.dot(center - tri[0]) > 0.0)) return false;
+    clipped.count = clippedSupportFace(tri, n, clipped.points, clipped.depths);
+    clipped.done = true;
+    return clipped.count < 0 || (clipped.count > 0 && !leavesSoonerInPlane(tri, n, low_full));
+  }
+
+  // Deep pass, the scaled core's closest feature the triangle's face (u: the
+  // closest direction): a face patch, unless the shape leaves the triangle
+  // sooner within its plane. Then the patch names the triangle's feature on
+  // that side (its support feature along that direction: the wall's top
+  // edge), with the point along u, and carries the triangle's face part: the
+  // ledge's face contact, or on a floor a neighbour's, voids it and holds
+  // that feature, and the part continues a face of this plane if there is
+  // one (withFacePart).
+  detail::PatchOutcome deepFacePatch(const Vec3 tri[3], const Vec3& n, const Vec3& u, double gap, const Vec3& low_full,
+                                     detail::Patch& p, const ClippedFace* clipped = nullptr) const {
+    Vec3 direction;
+    if (!leavesSoonerInPlane(tri, n, low_full, &direction))
+      return facePatch(tri, n, low_full - margin * n, false, p, clipped);
+    if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
+    p.feature = supportFeature(tri[0], tri[1], tri[2], direction, 1e-4);
+    return withFacePart(tri, n, gap, pointPatch(tri, u, p), p, clipped);
+  }
+
   // Deep penetration, the core shrunk to its center (a point in front of
   // the plane): the sphere's rule, exactly.
-  detail::PatchOutcome centerPatch(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, detail::Patch& p) const {
+  detail::PatchOutcome centerPatch(const Vec3 tri[3], const Vec3& n, const Vec3& low_full, detail::Patch& p,
+                                   const ClippedFace* clipped) const {
     const ClosestPoint q = closestPointOnTriangle(center, tri[0], tri[1], tri[2]);
     const Vec3 v = center - q.point;
     const double d = v.norm();
     p.distance = d - margin;
     if (d > margin + radius + contact_distance) return detail::PatchOutcome::kBeyondContactDistance;
     if (q.feature.type == FeatureType::kFace || !(d > 1e-12 * size))
-      return facePatch(tri, n, low_full - margin * n, false, p);
+      return deepFacePatch(tri, n, n, n.dot(center - tri[0]), low_full, p, clipped);
     p.feature = q.feature;
     // Not v / d: below ~1e-154 |v|^2 goes subnormal and d loses its digits.
     return pointPatch(tri, normalizedOr(v, n), p);
@@ -1396,14 +1508,20 @@ struct ConvexNarrowphase {
   // along -n clipped to the triangle's prism (clippedSupportFace), each point
   // with its own depth. The witness (a deepest point of the shape, over the
   // triangle when `witness_over` holds) is added when the clip misses it or
-  // is empty.
+  // is empty. `clipped`: that clip, when the caller has it already.
   detail::PatchOutcome facePatch(const Vec3 tri[3], const Vec3& n, const Vec3& witness, bool witness_over,
-                                 detail::Patch& p) const {
+                                 detail::Patch& p, const ClippedFace* clipped = nullptr) const {
     p.feature = Feature::face();
     p.normal = n;
     Vec3 points[detail::kMaxClipPoints + 1];  // room for the witness
     double depths[detail::kMaxClipPoints + 1];
-    int count = clippedSupportFace(tri, n, points, depths);
+    const bool reuse = clipped != nullptr && clipped->done;
+    int count = reuse ? clipped->count : clippedSupportFace(tri, n, points, depths);
+    if (reuse)
+      for (int i = 0; i < count; ++i) {
+        points[i] = clipped->points[i];
+        depths[i] = clipped->depths[i];
+      }
     if (count < 0 || !witness.allFinite()) {
       counters->support_not_finite = true;
       return detail::PatchOutcome::kDegenerate;
