@@ -59,6 +59,15 @@ ConvexHull boxHull(const Vec3& h) {
   return hull;
 }
 
+// The deep-path scene tests' settings: every patch's points (no manifold
+// reduction), within 0.01.
+QuerySettings everyPatchPoint() {
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  settings.reduce_manifold = false;
+  return settings;
+}
+
 SceneMesh single(const Vec3& a, const Vec3& b, const Vec3& c) {
   SceneMesh m;
   m.addTriangle(m.addVertex(a), m.addVertex(b), m.addVertex(c));
@@ -856,9 +865,7 @@ TEST(ConvexScenes, ASupportingFaceSunkPastTheMarginKeepsItsExtent) {
   std::vector<MeshInstance> tile_instances;
   for (const TriangleMesh& t : tiles) tile_instances.push_back({&t, Pose::identity()});
   const MeshInstance welded_instance{&welded, Pose::identity()};
-  QuerySettings settings;
-  settings.contact_distance = 0.01;
-  settings.reduce_manifold = false;  // every patch's points
+  QuerySettings settings = everyPatchPoint();
   QueryScratch scratch;
   std::vector<Contact> contacts;
   scenes::Rng rng(63);
@@ -928,9 +935,7 @@ TEST(ConvexScenes, OverhangingACliffSunkPastTheMarginIsHeldByTheLedge) {
   const SceneMesh step = scenes::step(2.0, 1.0, 0.5, 71);
   const TriangleMesh welded = testing::buildMesh(step);
   const TriangleMesh soup = testing::buildMesh(scenes::unweld(step));
-  QuerySettings settings;
-  settings.contact_distance = 0.01;
-  settings.reduce_manifold = false;  // every patch's points
+  QuerySettings settings = everyPatchPoint();
   QueryScratch scratch;
   std::vector<Contact> contacts;
   scenes::Rng rng(72);
