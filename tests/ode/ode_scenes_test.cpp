@@ -1,6 +1,7 @@
 // Simulations on non-flat meshes: the cliff (reference §2, the "cliff
-// problem" of triangle-normal colliders), a sphere at rest in a V-groove, and
-// 50 mixed bodies settling on a bumpy terrain. Native ODE, the meshcontact
+// problem" of triangle-normal colliders; and a cylinder dropped on its
+// brink), a sphere at rest in a V-groove, and 50 mixed bodies settling on a
+// bumpy terrain. Native ODE, the meshcontact
 // override and the lighter mode (ODE's colliders behind meshcontact's
 // triangle filter) run side by side; the figures are printed.
 #include "ode_sim.h"
@@ -146,6 +147,41 @@ TEST(OdeScenes, SphereRollsOffTheCliffAlongTheEdgeNormal) {
   EXPECT_LE(mc.max_up_velocity, 1e-3);
   EXPECT_LE(mc.max_sideways_speed, 1e-6);
   EXPECT_GT(f[0].worst_normal_error_deg, 10.0) << "ODE's native collider shows the cliff problem here";
+}
+
+// An upright cylinder (radius 0.2 m, 0.6 m long) dropped flat onto a ledge
+// at 2-4 m/s, its axis on the cliff's brink (the wall's plane x = 0): it
+// sinks past its margin for a step or two, and the ledge under half its
+// disk holds it. Its peak |v_x| over the next 0.1 s stays under 0.5 m/s
+// with the override (0.14-0.26); before f83099e the wall's top triangles
+// got a face contact pushing it off the ledge at 2.3 m/s (the deep path's
+// face-ownership rule, ConvexScenes.OverhangingACliffSunkPastTheMargin
+// IsHeldByTheLedge).
+TEST(OdeScenes, CylinderDroppedOnACliffsBrinkIsNotPushedOffIt) {
+  const Mode modes[2] = {Mode::kNative, Mode::kOverride};
+  for (Mode mode : modes) {
+    double worst = 0.0;
+    for (const double speed : {2.0, 3.0, 4.0}) {
+      for (const double yaw : {0.0, 0.4}) {
+        Session session;
+        World world(mode, {scenes::step(2.0, 1.0, 0.5, 71)});
+        const Mat3 rotation = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+        dBodyID b = world.addCylinder(0.2, 0.6, Vec3(0.0, 0.3, 1.0 + 0.3 + 0.001), rotation);
+        setVelocity(b, Vec3(0, 0, -speed), Vec3::Zero());
+        double peak = 0.0;
+        for (int i = 0; i < 12; ++i) {
+          world.step();
+          peak = std::max(peak, std::abs(velocity(b).x()));
+        }
+        worst = std::max(worst, peak);
+        if (mode == Mode::kOverride) {
+          EXPECT_LE(peak, 0.5) << "dropped at " << speed << " m/s, yaw " << yaw << ": pushed off the ledge";
+        }
+      }
+    }
+    std::printf("| cliff: cylinder dropped at 2-4 m/s on the brink | %-28s | peak |v_x| in 0.1 s %.3g m/s |\n",
+                name(mode), worst);
+  }
 }
 
 // A sphere resting in a 30-degree V-groove (touching both slopes) stays put.
