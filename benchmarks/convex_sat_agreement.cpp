@@ -19,7 +19,9 @@
 #include <meshcontact/meshcontact.h>
 #include <meshcontact_scenes/scenes.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
