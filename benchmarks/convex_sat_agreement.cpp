@@ -48,11 +48,8 @@ Counts compare(const mc::scenes::SceneMesh& scene, int placements, std::uint64_t
   mc::TriangleMesh mesh;
   if (!mesh.build(scene.view()).isOk()) std::exit(2);
   const mc::Vec3 h(0.3, 0.2, 0.1);
-  std::vector<mc::Vec3> corners;
-  for (int i = 0; i < 8; ++i)
-    corners.emplace_back((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z());
   mc::ConvexHull hull;
-  if (!hull.build(corners).isOk()) std::exit(2);
+  if (!hull.build(mc::scenes::boxCorners(h)).isOk()) std::exit(2);
   mc::QuerySettings settings;
   settings.reduce_manifold = false;  // every patch's points
   mc::QueryScratch scratch;

@@ -51,11 +51,8 @@ ConvexHull hull32(std::uint64_t seed, double radius, double margin = kAutoMargin
 }
 
 ConvexHull boxHull(const Vec3& h) {
-  std::vector<Vec3> corners;
-  for (int i = 0; i < 8; ++i)
-    corners.push_back(Vec3((i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z()));
   ConvexHull hull;
-  EXPECT_TRUE(hull.build(corners).isOk());
+  EXPECT_TRUE(hull.build(scenes::boxCorners(h)).isOk());
   return hull;
 }
 

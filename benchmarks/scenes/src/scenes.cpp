@@ -210,6 +210,14 @@ SceneMesh ridge(double half_extent, double slope_deg, double cell, std::uint64_t
   return twoSlopes(half_extent, slope_deg, cell, seed, -1.0);
 }
 
+std::vector<Vec3> boxCorners(const Vec3& half) {
+  std::vector<Vec3> corners;
+  for (int i = 0; i < 8; ++i)
+    corners.emplace_back((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(),
+                         (i & 4) ? half.z() : -half.z());
+  return corners;
+}
+
 SceneMesh tessellatedBox(const Vec3& b, double cell, std::uint64_t seed) {
   SceneMesh m;
   Rng rng(seed);

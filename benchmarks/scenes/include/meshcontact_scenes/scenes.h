@@ -111,6 +111,10 @@ SceneMesh bowl(double half_extent, double depth, double cell, std::uint64_t seed
 /// `cell`. Welded, so its edges and corners are shared vertices.
 SceneMesh tessellatedBox(const Vec3& half, double cell, std::uint64_t seed);
 
+/// The 8 corners of the box [-half, half] (corner i: +x when bit 0 is set,
+/// +y bit 1, +z bit 2): a box-shaped ConvexHull's points.
+std::vector<Vec3> boxCorners(const Vec3& half);
+
 /// The terrain used for scaling measurements: sineTerrain with square cells of
 /// kTerrainCell, amplitude kTerrainAmplitude and wavelength kTerrainWavelength
 /// (max slope ~21 degrees), n x n cells with n = round(sqrt(triangles / 2)),
