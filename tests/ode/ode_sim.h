@@ -4,7 +4,8 @@
 // of one or several trimesh pieces (or an analytic plane), bodies, a near
 // callback that counts contacts per body, and per-step observation; and the
 // scenes of issue 4 (sphere rolling, box sliding, capsule rolling) that the
-// tests check and benchmarks/dynamics/dynamics_traces records.
+// tests check and benchmarks/dynamics/dynamics_traces records, and a wheel
+// (a cylinder rolling) that the tests check.
 //
 // Shared by the tests (GoogleTest: a failed setup step is an EXPECT
 // failure) and by benchmarks/dynamics, which defines
@@ -402,6 +403,20 @@ inline Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground
   World world(mode, ground);
   const double r = 0.2;
   dBodyID b = world.addCapsule(r, 0.5, Vec3(1.0, 2.1, r), axisAlongY());
+  for (int i = 0; i < length.settle; ++i) world.step();
+  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
+  return track(world, b, length.run, nullptr, samples);
+}
+
+/// A wheel: a cylinder (radius 0.25, length 0.2) lying along y, rolling
+/// along x at 5 m/s. Its side meets the ground along a line, across the
+/// cells' diagonals as it rolls.
+inline Peaks rollCylinder(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
+                          std::vector<Sample>* samples = nullptr) {
+  Session session;
+  World world(mode, ground);
+  const double r = 0.25;
+  dBodyID b = world.addCylinder(r, 0.2, Vec3(1.0, 2.1, r), axisAlongY());
   for (int i = 0; i < length.settle; ++i) world.step();
   setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
   return track(world, b, length.run, nullptr, samples);
