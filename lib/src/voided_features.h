@@ -568,13 +568,18 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
   // The push that clears the piece along an axis, +infinity when the shape
   // does not reach beyond the piece that way. Only the open edges' parts
   // within the shape's extent across the axis count (across = along
-  // M = n x axis, in the piece's plane of normal n): moving along the axis
-  // never brings the shape over the rest. (A box yawed by 0.03 rad beside a
-  // plate's edge: the edge's vertex 0.5 m along it, away from the box, lay
-  // 0.016 further out along the box's side face than the box's part under
-  // the plate, and the push that cleared it outweighed the face's.)
-  const auto push = [&](std::uint32_t piece, const Vec3& axis) {
-    const Vec3 across = s.entered_normals[piece].cross(axis);
+  // M = n x axis, in the piece's plane: n the normal of the triangle whose
+  // patch or crease gave the axis): moving along the axis never brings the
+  // shape over the rest. (A box yawed by 0.03 rad beside a plate's edge:
+  // the edge's vertex 0.5 m along it, away from the box, lay 0.016 further
+  // out along the box's side face than the box's part under the plate, and
+  // the push that cleared it outweighed the face's.) Not the normal of the
+  // piece's root: its triangles' normals spread by up to 3 degrees at each
+  // link, and which of them is the root follows the order the candidates
+  // came in (a box buried in a bowl's side got its side contact or its face
+  // contact with the order: 3 of 26,191 on the bowl and the sine terrain).
+  const auto push = [&](std::uint32_t piece, const Vec3& n, const Vec3& axis) {
+    const Vec3 across = n.cross(axis);
     const double across_length = across.norm();
     double across_low = -kInf, across_high = kInf;
     Vec3 m = Vec3::Zero();
@@ -620,7 +625,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
       least = kInf;
       const auto axes = range(s.piece_axes, piece, [&](std::uint32_t a) { return find(a); });
       for (auto a = axes.first; a != axes.second; ++a) {
-        s.axis_push[*a] = push(piece, s.patches[*a].normal);
+        s.axis_push[*a] = push(piece, s.entered_normals[*a], s.patches[*a].normal);
         least = std::min(least, s.axis_push[*a]);
       }
       const auto creases = range(s.creases, piece, [](const FilterScratch::PieceEdge& e) { return e.piece; });
@@ -633,7 +638,7 @@ void markPlanePushes(const CandidateTriangle* candidates, FilterScratch& s, Vert
         const Vec3* w = candidates[s.patch_candidate[e->triangle]].vertices;
         const Vec3 out =
             normalizedOr((w[(e->edge + 1) % 3] - w[e->edge]).cross(s.entered_normals[e->triangle]), Vec3::Zero());
-        least = std::min(least, push(piece, out));
+        least = std::min(least, push(piece, s.entered_normals[e->triangle], out));
       }
     }
     // The patch's own axis stands when it is cheap and within 5% of the
