@@ -973,6 +973,69 @@ TEST(ConvexScenes, OverhangingACliffSunkPastTheMarginIsHeldByTheLedge) {
   }
 }
 
+// Deep passes take a triangle's normal from the scaled core and its depth
+// from the full shape's extent along that normal, which is no distance: a
+// triangle the shape does not reach, on the far side of a fold beside a
+// box-shaped hull sunk into a terrain (or with its center under it), got an
+// edge or vertex contact within the contact distance, often nearly
+// horizontal: 59 of the 350 edge and vertex contacts of the 2,000
+// placements on the sine terrain below, 39 of 249 on the bowl (before the
+// full shape's reach was checked). Every edge or vertex contact must come
+// from a triangle the shape reaches within the contact distance: the box
+// path's exact closest points (SAT) on that triangle alone, from both sides
+// (the box path is one-sided), on the sharp box that holds the hull.
+TEST(ConvexScenes, DeepEdgeAndVertexContactsComeFromTrianglesTheShapeReaches) {
+  const Vec3 h(0.3, 0.2, 0.1);
+  const ConvexHull hull = boxHull(h);
+  struct Surface {
+    const char* name;
+    SceneMesh mesh;
+    Vec3 lo, hi;  // where the hull's center goes
+  };
+  const Surface surfaces[] = {
+      {"sine terrain", scenes::sineTerrain(16, 16, 0.5, 0.3, 3.0, 4), Vec3(1, 1, -0.4), Vec3(7, 7, 0.4)},
+      {"bowl", scenes::bowl(3.0, 1.0, 0.5, 4), Vec3(-2, -2, 0), Vec3(2, 2, 0.5)}};
+  QuerySettings settings;
+  settings.contact_distance = 0.01;
+  QuerySettings exact = settings;
+  exact.contact_distance = 1.0;  // the box path's separated contacts: -distance
+  QueryScratch scratch;
+  std::vector<Contact> contacts, sat;
+  for (const Surface& s : surfaces) {
+    const TriangleMesh mesh = testing::buildMesh(s.mesh);
+    scenes::Rng rng(81);
+    int checked = 0, unreached = 0;
+    const int placements = testing::scaled(2000);
+    for (int i = 0; i < placements; ++i) {
+      Pose pose;
+      pose.rotation = rng.rotation();
+      pose.translation = rng.uniformVector(s.lo, s.hi);
+      ASSERT_TRUE(collideConvex(mesh, hull, pose, settings, scratch, contacts).isOk());
+      for (const Contact& c : contacts) {
+        if (c.feature.type == FeatureType::kFace) continue;
+        const std::uint32_t* t = mesh.triangle(c.triangle);
+        double separation = std::numeric_limits<double>::infinity();
+        for (const bool flipped : {false, true}) {
+          CandidateTriangle alone;
+          alone.vertices[0] = mesh.vertex(t[0]);
+          alone.vertices[1] = mesh.vertex(t[flipped ? 2 : 1]);
+          alone.vertices[2] = mesh.vertex(t[flipped ? 1 : 2]);
+          alone.keys[0] = 0, alone.keys[1] = 1, alone.keys[2] = 2;
+          ASSERT_TRUE(collideBoxCandidates(Box{h}, pose, &alone, 1, exact, scratch, sat).isOk());
+          for (const Contact& b : sat) separation = std::min(separation, -b.depth);
+        }
+        ++checked;
+        if (separation > settings.contact_distance + 1e-9 && unreached++ < 3)
+          ADD_FAILURE() << s.name << " placement " << i << " at " << str(pose.translation) << ": triangle "
+                        << c.triangle << " gives a contact of normal " << str(c.normal) << ", depth " << c.depth
+                        << ", but the box is " << separation << " from it";
+      }
+    }
+    EXPECT_GT(checked, placements / 20) << s.name;  // the sweep meets edges and vertices
+    EXPECT_EQ(unreached, 0) << s.name << ": of " << checked << " edge and vertex contacts";
+  }
+}
+
 // A cylinder on its side, and a box hull lying flat, along a roof's ridge
 // (the one edge between two 45-degree slopes), held 0.001 into it or 0.01
 // above it (contact distance 0.02): the core's line along the edge is a
