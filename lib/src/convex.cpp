@@ -61,6 +61,7 @@
 
 #include "meshcontact/convex.h"
 
+#include "capsule_segment.h"
 #include "convex_passes.h"
 #include "convex_patch.h"
 #include "gather.h"
@@ -1372,8 +1373,9 @@ struct ConvexNarrowphase {
   // The core's extreme point along -u that lies over the triangle's vertex
   // (on the line through it along u), when the core's supporting face
   // along -u is normal to u (its points level along u, to 1e-9 of the
-  // size) and holds one; else `extreme` (the support point, or GJK's
-  // witness). A core lying across a peak has a whole segment or face
+  // size; of a face supportFace gives tilted within its slack, the points
+  // level with `extreme`) and holds one; else `extreme` (the support point,
+  // or GJK's witness). A core lying across a peak has a whole segment or face
   // extreme along -u, and the support point is any point of it (a cylinder
   // across a pyramid's apex, sunk 0.01: its contact at either end of its
   // side line, 0.24 from the apex); the depth along u is the same at each.
@@ -1381,17 +1383,19 @@ struct ConvexNarrowphase {
   // `extreme` is.
   Vec3 overVertex(const Vec3& vertex, const Vec3& u, const Vec3& extreme) const {
     Vec3 points[SupportShape::kMaxFacePoints];
-    int count = supportFacePoints(-u, points);
-    if (count < 2) return extreme;
+    const int given = supportFacePoints(-u, points);
     const Vec3 e1 = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2 = u.cross(e1);
     detail::FacePoint face[SupportShape::kMaxFacePoints];
     const double level = u.dot(extreme);
-    for (int i = 0; i < count; ++i) {
-      face[i].p = points[i];
-      if (!(std::abs(u.dot(face[i].p) - level) <= 1e-9 * size)) return extreme;
-      face[i].x = e1.dot(face[i].p - vertex);
-      face[i].y = e2.dot(face[i].p - vertex);
+    int count = 0;
+    for (int i = 0; i < given; ++i) {
+      if (!(std::abs(u.dot(points[i]) - level) <= 1e-9 * size)) continue;  // tilted within supportFace's slack
+      face[count].p = points[i];
+      face[count].x = e1.dot(points[i] - vertex);
+      face[count].y = e2.dot(points[i] - vertex);
+      ++count;
     }
+    if (count < 2) return extreme;
     if (count == 2) {  // a segment: its point nearest the line, in the plane normal to u
       const double dx = face[1].x - face[0].x, dy = face[1].y - face[0].y, len2 = dx * dx + dy * dy;
       const double t = len2 > 0.0 ? std::clamp(-(face[0].x * dx + face[0].y * dy) / len2, 0.0, 1.0) : 0.0;
@@ -1406,6 +1410,62 @@ struct ConvexNarrowphase {
     return vertex + u.dot(extreme - vertex) * u;  // at the support point's height
   }
 
+  // The edge's counterpart of overVertex: the core's extreme point along -u
+  // nearest the triangle's edge e0-e1 as seen along u, when the core's
+  // supporting face along -u is normal to u (its points level, to 1e-9 of
+  // the size); else `extreme`. A deep pass takes u from the scaled core's
+  // closest pair, and where that pair is edge against edge, u is normal to
+  // the core's edge: the support point was either end of it, whichever
+  // rounding gave (a box-shaped hull sunk at a step's brink: its contact
+  // 0.59 along its long edge from one query frame to another). Seen along
+  // u, the core's segment crosses the edge's line: the point of the
+  // segment nearest it. A face normal to u: the middle of the edge's part
+  // over the face (the edge is then level too), or `extreme` if none is.
+  // Only the supporting face's points level with `extreme` count.
+  Vec3 overEdge(const Vec3& e0, const Vec3& e1, const Vec3& u, const Vec3& extreme) const {
+    Vec3 points[SupportShape::kMaxFacePoints];
+    const int given = supportFacePoints(-u, points);
+    // Its points level with the extreme one (supportFace's face may be
+    // tilted within its slack: then its lowest edge, or point, is the set).
+    const double level = u.dot(extreme);
+    int count = 0;
+    for (int i = 0; i < given; ++i)
+      if (std::abs(u.dot(points[i]) - level) <= 1e-9 * size) points[count++] = points[i];
+    if (count < 2) return extreme;
+    // Seen along u: everything moved to the support plane's level.
+    const auto flat = [&](const Vec3& x) { return Vec3(x + (level - u.dot(x)) * u); };
+    const Vec3 a = flat(e0), b = flat(e1);
+    if (count == 2) return detail::closestSegmentSegment(points[0], points[1], a, b).p;
+    const Vec3 e1_axis = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2_axis = u.cross(e1_axis);
+    detail::FacePoint face[SupportShape::kMaxFacePoints];
+    for (int i = 0; i < count; ++i) {
+      face[i].p = points[i];
+      face[i].x = e1_axis.dot(points[i] - a);
+      face[i].y = e2_axis.dot(points[i] - a);
+    }
+    count = detail::convexHull2d(face, count);  // counter-clockwise about u
+    if (count < 3) return extreme;
+    // The part of a-b inside the polygon (Cyrus-Beck), a at the origin.
+    const double dx = e1_axis.dot(b - a), dy = e2_axis.dot(b - a);
+    double t0 = 0.0, t1 = 1.0;
+    for (int i = 0; i < count && t0 <= t1; ++i) {
+      const detail::FacePoint &p0 = face[i], &p1 = face[(i + 1) % count];
+      // Inside: left of p0->p1, cross((p1 - p0), (x - p0)) >= 0 at x = t (dx, dy).
+      const double ex = p1.x - p0.x, ey = p1.y - p0.y;
+      const double at0 = ex * (0.0 - p0.y) - ey * (0.0 - p0.x);  // the cross at t = 0
+      const double slope = ex * dy - ey * dx;                      // its change per unit t
+      if (slope == 0.0) {
+        if (at0 < 0.0) return extreme;
+      } else if (slope > 0.0) {
+        t0 = std::max(t0, -at0 / slope);
+      } else {
+        t1 = std::min(t1, -at0 / slope);
+      }
+    }
+    if (!(t0 <= t1)) return extreme;
+    return a + (0.5 * (t0 + t1)) * (b - a);
+  }
+
   // One point along u for the full shape: its extreme point along -u and the
   // separation of the shape's and the triangle's projections on u.
   detail::PatchOutcome pointPatch(const Vec3 tri[3], const Vec3& u, detail::Patch& p) const {
@@ -1414,7 +1474,7 @@ struct ConvexNarrowphase {
     if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
     if (p.feature.type == FeatureType::kVertex) extreme = overVertex(tri[p.feature.index], u, extreme);
     if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
-    const Vec3 point = extreme - margin * u;
+    Vec3 point = extreme - margin * u;
     const double depth = u.dot(TriangleSupport{tri}(u)) - u.dot(point);
     p.normal = u;
     p.count = 0;
@@ -1440,6 +1500,12 @@ struct ConvexNarrowphase {
       // by this one. (Which of the two came first was rounding's choice.)
       p.distance += 1e-9 * size;
       return detail::PatchOutcome::kContact;
+    }
+    // The point, once it is kept (its depth is the level's, whichever point
+    // of the level).
+    if (p.feature.type == FeatureType::kEdge) {
+      point = overEdge(tri[p.feature.index], tri[(p.feature.index + 1) % 3], u, extreme) - margin * u;
+      if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
     }
     p.count = 1;
     p.points[0] = point;
