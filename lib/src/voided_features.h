@@ -813,11 +813,22 @@ void generateContacts(const CandidateTriangle* candidates, std::size_t count, Na
       // degrees at a curb's foot, or tilted beside a cliff's edge, has
       // patches along its own face axes that the wall's or the ledge's face
       // contacts void, and those pushes are not the surface's.
-      // (Met in rank order, so each holder's `kept` is final.)
+      // (Met in rank order, so each holder's `kept` is final.) Not a holder
+      // whose own patch is on this very feature (the edge's other triangle,
+      // as near: rounding ranked it first): that is the same point, not the
+      // line going on, and both were written (a box within the contact
+      // distance of a terrain's diagonal got its contact twice).
       const Vec3 own = p.normal;
+      const Vec3& own_a = c.vertices[p.feature.index];
+      const Vec3& own_b = p.feature.type == FeatureType::kEdge ? c.vertices[(p.feature.index + 1) % 3] : own_a;
       const auto same_contact = [&](const SortItem& r) {
         const Patch& q = s.patches[r.patch];
-        return q.kept && q.plane_push != PlanePush::kNone && q.normal.dot(own) >= 1.0 - 1e-12;
+        if (!(q.kept && q.plane_push != PlanePush::kNone && q.normal.dot(own) >= 1.0 - 1e-12)) return false;
+        if (q.feature.type != p.feature.type) return true;
+        const Vec3* w = candidates[s.patch_candidate[r.patch]].vertices;
+        const Vec3& a = w[q.feature.index];
+        const Vec3& b = q.feature.type == FeatureType::kEdge ? w[(q.feature.index + 1) % 3] : a;
+        return !((a == own_a && b == own_b) || (a == own_b && b == own_a));
       };
       if (heldBefore(p.feature, same_contact)) voided = false;
     }
