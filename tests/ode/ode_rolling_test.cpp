@@ -1,10 +1,11 @@
 // Simulations on tessellated ground (DESIGN.md §5, issue 4): a sphere rolling,
-// a box sliding, a capsule rolling and a wheel (cylinder) rolling over a floor of 0.5 m cells with random
-// diagonals, as one trimesh and as separate tiles. Each scene runs on ODE's
-// analytic plane (the reference), ODE's native trimesh collider, the
-// meshcontact override and the meshcontact triangle filter; the figures are
-// printed as table rows ("| scene | method | peak v_up | peak |dz| | peak |w|
-// | max contacts | mean contacts |") and checked.
+// a box sliding, a capsule rolling and a wheel (a cylinder) rolling over a
+// floor of 0.5 m cells with random diagonals, as one trimesh and as separate
+// tiles. Each scene runs on ODE's analytic plane (the reference), ODE's
+// native trimesh collider, the meshcontact override and the meshcontact
+// triangle filter; the figures are printed as table rows ("| scene | method
+// | peak v_up | peak |dz| | peak |w| | max contacts | mean contacts |") and
+// checked.
 #include "ode_sim.h"
 
 #include "../test_support.h"
