@@ -748,9 +748,7 @@ TEST(BoxFilter, AnEdgesContactIsWrittenOnceNotOnEachTriangle) {
     int touching = 0, twice = 0;
     const int placements = testing::scaled(4000);
     for (int i = 0; i < placements; ++i) {
-      Pose pose;
-      pose.rotation = rng.rotation();
-      pose.translation = rng.uniformVector(s.lo, s.hi);
+      const Pose pose = testing::randomPoseIn(rng, s.lo, s.hi);
       ASSERT_TRUE(collideBox(mesh, box, pose, settings, scratch, contacts).isOk());
       touching += !contacts.empty();
       // The corners of a contact's feature, as positions.

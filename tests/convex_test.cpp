@@ -1007,9 +1007,7 @@ TEST(ConvexScenes, DeepEdgeAndVertexContactsComeFromTrianglesTheShapeReaches) {
     int checked = 0, unreached = 0;
     const int placements = testing::scaled(2000);
     for (int i = 0; i < placements; ++i) {
-      Pose pose;
-      pose.rotation = rng.rotation();
-      pose.translation = rng.uniformVector(s.lo, s.hi);
+      const Pose pose = testing::randomPoseIn(rng, s.lo, s.hi);
       ASSERT_TRUE(collideConvex(mesh, hull, pose, settings, scratch, contacts).isOk());
       for (const Contact& c : contacts) {
         if (c.feature.type == FeatureType::kFace) continue;
@@ -1580,9 +1578,7 @@ TEST(ConvexProperties, MovingEverythingTogetherKeepsDeepContactPoints) {
       int touching = 0, changed = 0;
       const int placements = testing::scaled(1000);
       for (int i = 0; i < placements; ++i) {
-        Pose pose;
-        pose.rotation = rng.rotation();
-        pose.translation = rng.uniformVector(s.lo, s.hi);
+        const Pose pose = testing::randomPoseIn(rng, s.lo, s.hi);
         ASSERT_TRUE(collideConvex(&here, 1, shape, pose, settings, scratch, a).isOk());
         ASSERT_TRUE(collideConvex(&there, 1, shape, frame * pose, settings, scratch, b).isOk());
         if (a.empty() && b.empty()) continue;

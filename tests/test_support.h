@@ -24,6 +24,15 @@ inline int scaled(int placements) {
   return std::max(100, static_cast<int>(placements * scale));
 }
 
+/// A random rotation, then a center drawn uniformly in the box [lo, hi]
+/// (that order of draws from `rng`).
+inline Pose randomPoseIn(scenes::Rng& rng, const Vec3& lo, const Vec3& hi) {
+  Pose pose;
+  pose.rotation = rng.rotation();
+  pose.translation = rng.uniformVector(lo, hi);
+  return pose;
+}
+
 /// Whether two contact lists are equal bit for bit (points, normals, depths,
 /// triangles, features, in order): the determinism and order-independence
 /// checks, which no tolerance may blur.

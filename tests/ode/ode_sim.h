@@ -396,16 +396,25 @@ inline Peaks slideBox(Mode mode, const std::vector<scenes::SceneMesh>& ground, c
   return track(world, b, length.run, hook, samples);
 }
 
-/// A capsule (radius 0.2, segment 0.5) lying along y, rolling along x at 5 m/s.
-inline Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
-                         std::vector<Sample>* samples = nullptr) {
+/// A body of radius r lying along y (its axis: local z turned onto y), set
+/// down touching the ground, rolled along x at 5 m/s without slipping.
+/// `add(world, r)` makes the body.
+template <class Add>
+Peaks rollAlongX(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length, double r,
+                 const Add& add, std::vector<Sample>* samples) {
   Session session;
   World world(mode, ground);
-  const double r = 0.2;
-  dBodyID b = world.addCapsule(r, 0.5, Vec3(1.0, 2.1, r), axisAlongY());
+  dBodyID b = add(world, r);
   for (int i = 0; i < length.settle; ++i) world.step();
   setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
   return track(world, b, length.run, nullptr, samples);
+}
+
+/// A capsule (radius 0.2, segment 0.5) lying along y, rolling along x at 5 m/s.
+inline Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
+                         std::vector<Sample>* samples = nullptr) {
+  const auto add = [](World& w, double r) { return w.addCapsule(r, 0.5, Vec3(1.0, 2.1, r), axisAlongY()); };
+  return rollAlongX(mode, ground, length, 0.2, add, samples);
 }
 
 /// A wheel: a cylinder (radius 0.25, length 0.2) lying along y, rolling
@@ -413,13 +422,8 @@ inline Peaks rollCapsule(Mode mode, const std::vector<scenes::SceneMesh>& ground
 /// cells' diagonals as it rolls.
 inline Peaks rollCylinder(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
                           std::vector<Sample>* samples = nullptr) {
-  Session session;
-  World world(mode, ground);
-  const double r = 0.25;
-  dBodyID b = world.addCylinder(r, 0.2, Vec3(1.0, 2.1, r), axisAlongY());
-  for (int i = 0; i < length.settle; ++i) world.step();
-  setVelocity(b, Vec3(5, 0, 0), Vec3(0, 5 / r, 0));
-  return track(world, b, length.run, nullptr, samples);
+  const auto add = [](World& w, double r) { return w.addCylinder(r, 0.2, Vec3(1.0, 2.1, r), axisAlongY()); };
+  return rollAlongX(mode, ground, length, 0.25, add, samples);
 }
 
 /// One line of the figures table (printed by the tests, collected in the report).
