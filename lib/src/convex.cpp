@@ -1370,6 +1370,18 @@ struct ConvexNarrowphase {
     }
   }
 
+  // The core's supporting face along -u, its points level with `extreme`
+  // along u to 1e-9 of the size (supportFace may give a face tilted within
+  // its slack: then its lowest edge, or point, is the set). Returns how many.
+  int levelSupportPoints(const Vec3& u, const Vec3& extreme, Vec3* points) const {
+    const int given = supportFacePoints(-u, points);
+    const double level = u.dot(extreme);
+    int count = 0;
+    for (int i = 0; i < given; ++i)
+      if (std::abs(u.dot(points[i]) - level) <= 1e-9 * size) points[count++] = points[i];
+    return count;
+  }
+
   // The core's extreme point along -u that lies over the triangle's vertex
   // (on the line through it along u), when the core's supporting face
   // along -u is normal to u (its points level along u, to 1e-9 of the
@@ -1383,19 +1395,15 @@ struct ConvexNarrowphase {
   // `extreme` is.
   Vec3 overVertex(const Vec3& vertex, const Vec3& u, const Vec3& extreme) const {
     Vec3 points[SupportShape::kMaxFacePoints];
-    const int given = supportFacePoints(-u, points);
+    int count = levelSupportPoints(u, extreme, points);
+    if (count < 2) return extreme;
     const Vec3 e1 = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2 = u.cross(e1);
     detail::FacePoint face[SupportShape::kMaxFacePoints];
-    const double level = u.dot(extreme);
-    int count = 0;
-    for (int i = 0; i < given; ++i) {
-      if (!(std::abs(u.dot(points[i]) - level) <= 1e-9 * size)) continue;  // tilted within supportFace's slack
-      face[count].p = points[i];
-      face[count].x = e1.dot(points[i] - vertex);
-      face[count].y = e2.dot(points[i] - vertex);
-      ++count;
+    for (int i = 0; i < count; ++i) {
+      face[i].p = points[i];
+      face[i].x = e1.dot(points[i] - vertex);
+      face[i].y = e2.dot(points[i] - vertex);
     }
-    if (count < 2) return extreme;
     if (count == 2) {  // a segment: its point nearest the line, in the plane normal to u
       const double dx = face[1].x - face[0].x, dy = face[1].y - face[0].y, len2 = dx * dx + dy * dy;
       const double t = len2 > 0.0 ? std::clamp(-(face[0].x * dx + face[0].y * dy) / len2, 0.0, 1.0) : 0.0;
@@ -1424,15 +1432,10 @@ struct ConvexNarrowphase {
   // Only the supporting face's points level with `extreme` count.
   Vec3 overEdge(const Vec3& e0, const Vec3& e1, const Vec3& u, const Vec3& extreme) const {
     Vec3 points[SupportShape::kMaxFacePoints];
-    const int given = supportFacePoints(-u, points);
-    // Its points level with the extreme one (supportFace's face may be
-    // tilted within its slack: then its lowest edge, or point, is the set).
-    const double level = u.dot(extreme);
-    int count = 0;
-    for (int i = 0; i < given; ++i)
-      if (std::abs(u.dot(points[i]) - level) <= 1e-9 * size) points[count++] = points[i];
+    int count = levelSupportPoints(u, extreme, points);
     if (count < 2) return extreme;
     // Seen along u: everything moved to the support plane's level.
+    const double level = u.dot(extreme);
     const auto flat = [&](const Vec3& x) { return Vec3(x + (level - u.dot(x)) * u); };
     const Vec3 a = flat(e0), b = flat(e1);
     if (count == 2) return detail::closestSegmentSegment(points[0], points[1], a, b).p;
