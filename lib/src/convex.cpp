@@ -518,6 +518,22 @@ struct PlacedCore {
   }
 };
 
+// Points seen along the unit vector u: their coordinates in the plane
+// normal to u, about `origin` (axes: a unit vector normal to u, and u
+// cross it; counter-clockwise about u). overVertex and overEdge.
+struct ViewAlong {
+  Vec3 x_axis, y_axis, origin;
+  ViewAlong(const Vec3& u, const Vec3& o)
+      : x_axis(normalizedOr(u.unitOrthogonal(), Vec3::UnitX())), y_axis(u.cross(x_axis)), origin(o) {}
+  detail::FacePoint operator()(const Vec3& p) const {
+    detail::FacePoint f;
+    f.p = p;
+    f.x = x_axis.dot(p - origin);
+    f.y = y_axis.dot(p - origin);
+    return f;
+  }
+};
+
 struct TriangleSupport {
   const Vec3* v;
   Vec3 operator()(const Vec3& d) const {
@@ -1397,13 +1413,9 @@ struct ConvexNarrowphase {
     Vec3 points[SupportShape::kMaxFacePoints];
     int count = levelSupportPoints(u, extreme, points);
     if (count < 2) return extreme;
-    const Vec3 e1 = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2 = u.cross(e1);
+    const ViewAlong view(u, vertex);
     detail::FacePoint face[SupportShape::kMaxFacePoints];
-    for (int i = 0; i < count; ++i) {
-      face[i].p = points[i];
-      face[i].x = e1.dot(points[i] - vertex);
-      face[i].y = e2.dot(points[i] - vertex);
-    }
+    for (int i = 0; i < count; ++i) face[i] = view(points[i]);
     if (count == 2) {  // a segment: its point nearest the line, in the plane normal to u
       const double dx = face[1].x - face[0].x, dy = face[1].y - face[0].y, len2 = dx * dx + dy * dy;
       const double t = len2 > 0.0 ? std::clamp(-(face[0].x * dx + face[0].y * dy) / len2, 0.0, 1.0) : 0.0;
@@ -1439,17 +1451,14 @@ struct ConvexNarrowphase {
     const auto flat = [&](const Vec3& x) { return Vec3(x + (level - u.dot(x)) * u); };
     const Vec3 a = flat(e0), b = flat(e1);
     if (count == 2) return detail::closestSegmentSegment(points[0], points[1], a, b).p;
-    const Vec3 e1_axis = normalizedOr(u.unitOrthogonal(), Vec3::UnitX()), e2_axis = u.cross(e1_axis);
+    const ViewAlong view(u, a);
     detail::FacePoint face[SupportShape::kMaxFacePoints];
-    for (int i = 0; i < count; ++i) {
-      face[i].p = points[i];
-      face[i].x = e1_axis.dot(points[i] - a);
-      face[i].y = e2_axis.dot(points[i] - a);
-    }
+    for (int i = 0; i < count; ++i) face[i] = view(points[i]);
     count = detail::convexHull2d(face, count);  // counter-clockwise about u
     if (count < 3) return extreme;
     // The part of a-b inside the polygon (Cyrus-Beck), a at the origin.
-    const double dx = e1_axis.dot(b - a), dy = e2_axis.dot(b - a);
+    const detail::FacePoint end = view(b);
+    const double dx = end.x, dy = end.y;
     double t0 = 0.0, t1 = 1.0;
     for (int i = 0; i < count && t0 <= t1; ++i) {
       const detail::FacePoint &p0 = face[i], &p1 = face[(i + 1) % count];
