@@ -1687,6 +1687,20 @@ struct ConvexNarrowphase {
     double deepest = -std::numeric_limits<double>::infinity();
     for (int i = 0; i < count; ++i) deepest = std::max(deepest, depths[i]);
     const double witness_depth = n.dot(tri[0] - witness);
+    if (count == 0 && !witness_over && !(p.distance <= contact_distance) && !fullShapeReaches(tri)) {
+      // Deep pass, nothing of the shape over the triangle within reach, and
+      // the witness (the shape's extreme along -n) lies beside it: its depth
+      // is the projections' overlap on n, not a distance, as in pointPatch.
+      // Beyond reach of the full shape, no point; the patch still voids. (A
+      // box sunk 0.13 into the floor at a step's foot, 0.023 from the wall:
+      // its extreme along the wall's normal, under the floor, beside the
+      // wall's triangle, gave a wall contact 0.007 apart, which held the box
+      // off the wall.) Ranked after a patch at its distance, as there.
+      if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
+      p.distance += 1e-9 * size;
+      p.count = 0;
+      return detail::PatchOutcome::kContact;
+    }
     if (count == 0 || (witness_over && witness_depth > deepest + 1e-9 * size)) {
       points[count] = witness;
       depths[count] = witness_depth;

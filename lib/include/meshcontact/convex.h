@@ -38,26 +38,26 @@
 //     until K is clear of every triangle. Normals and features then come from
 //     the shrunk K (the same closest-feature rule for every triangle, so the
 //     voided-features argument still holds); depths and points come from the
-//     full shape along each normal (an edge or vertex contact only from a
-//     triangle the full shape reaches within the contact distance; its point,
-//     where the shape's extreme along the normal is a whole edge or face, the
-//     one over the triangle's edge or vertex), and the triangle under the
-//     shape's deepest point (its center in front) owns a face patch with that
-//     point, so the deepest contact carries the true depth; so does, once the
-//     shrunk K is clear of it, any triangle under the shape's supporting face
-//     along its normal. Not a triangle the shape leaves sooner by moving
-//     within its plane than along its normal: a box on a ledge overhanging a
-//     cliff, sunk past the margin, reaches far behind the wall's plane but
-//     leaves the wall's top triangles by rising its sink, so the ledge holds
-//     it (up) and the wall pushes nothing sideways. A triangle under another
-//     part of the shape's supporting face along its normal (the rest of a
-//     cylinder's side line, of a hull's face) gets that part as a face
-//     contact where it continues a face contact of its plane (within 3
-//     degrees), so the shape keeps its whole footprint. A shape whose center
-//     passed behind a triangle's plane gets no contact from that triangle,
-//     exactly like a sphere whose centre did. The deep path costs one more
-//     pass over the candidates per halving, less the passes that a triangle
-//     the core clearly crosses proves void (2-4x a resting query).
+//     full shape along each normal (a contact only from a triangle the full
+//     shape reaches within the contact distance; an edge or vertex contact's
+//     point, where the shape's extreme along the normal is a whole edge or
+//     face, the one over the triangle's edge or vertex), and the triangle
+//     under the shape's deepest point (its center in front) owns a face patch
+//     with that point, so the deepest contact carries the true depth; so
+//     does, once the shrunk K is clear of it, any triangle under the shape's
+//     supporting face along its normal. Not a triangle the shape leaves
+//     sooner by moving within its plane than along its normal: a box on a
+//     ledge overhanging a cliff, sunk past the margin, reaches far behind the
+//     wall's plane but leaves the wall's top triangles by rising its sink, so
+//     the ledge holds it (up) and the wall pushes nothing sideways. A
+//     triangle under another part of the shape's supporting face along its
+//     normal (the rest of a cylinder's side line, of a hull's face) gets that
+//     part as a face contact where it continues a face contact of its plane
+//     (within 3 degrees), so the shape keeps its whole footprint. A shape
+//     whose center passed behind a triangle's plane gets no contact from that
+//     triangle, exactly like a sphere whose centre did. The deep path costs
+//     one more pass over the candidates per halving, less the passes that a
+//     triangle the core clearly crosses proves void (2-4x a resting query).
 // Then the voided-features filter (reference §5) and the optional manifold
 // reduction (QuerySettings::reduce_manifold).
 
