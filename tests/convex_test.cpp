@@ -1185,6 +1185,31 @@ TEST(ConvexMargin, HullCenterIsTheVolumeCentroid) {
   }
 }
 
+// A hull's supporting face along a direction within a few degrees of a
+// face's normal is that face, not every point within the slack's height: a
+// board thinner than the slack (5% of its size: a 2 x 2 x 0.1 board, a
+// 1 x 1 x 0.004 plate) has its top face within it, whose corners, on the
+// side tilted down, lie just outside the bottom ones seen along the
+// direction and took their place in the face's outline (1 contact where the
+// board lay on 4 corners). Tilted by up to 2.5 degrees about any axis (the
+// slack holds a diagonal tilted by 2.9 degrees or less), the supporting face
+// along -z is the 4 bottom corners (before: the thin boards' 8 corners; the
+// cube is the control).
+TEST(ConvexMargin, ABoardsSupportingFaceIsItsBottom) {
+  for (const Vec3& h : {Vec3(1.0, 1.0, 0.05), Vec3(0.5, 0.5, 0.002), Vec3(0.25, 0.25, 0.25)}) {
+    const ConvexHull hull = boxHull(h);
+    scenes::Rng rng(73);
+    for (int i = 0; i < 200; ++i) {
+      const Vec3 axis = normalizedOr(Vec3(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), 0.0), Vec3::UnitX());
+      const Vec3 down = Eigen::AngleAxisd(rng.uniform(0.0, 2.5 * M_PI / 180), axis) * Vec3(0, 0, -1);
+      Vec3 face[SupportShape::kMaxFacePoints];
+      const int n = hull.supportFace(down, face);
+      ASSERT_EQ(n, 4) << "board " << str(h) << " along " << str(down);
+      for (int k = 0; k < n; ++k) EXPECT_LT(face[k].z(), 0.0) << "board " << str(h) << " along " << str(down);
+    }
+  }
+}
+
 // A supportFace() that returns no point (against the contract) stands for
 // the support point, as the default supportFace() gives: the same contacts.
 // The face patch read an unwritten point before.

@@ -100,6 +100,9 @@ namespace {
 // Supporting-face slack: points within this slope times the shape's size of
 // the extreme height join the face (about 3 degrees of tilt).
 constexpr double kFaceSlope = 0.05;
+// ConvexHull::supportFace: a point joins only from a face facing the
+// direction within 60 degrees (or level with the extreme point).
+constexpr double kFacingCosine = 0.5;
 
 // The largest explicit margin accepted, as a fraction of the inradius: the
 // core keeps at least half the shape's thickness.
@@ -113,6 +116,9 @@ constexpr double kMaxMarginFraction = 0.5;
 Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   points_.clear();
   core_.clear();
+  face_normals_.clear();
+  point_face_begin_.clear();
+  point_faces_.clear();
   diameter_ = inradius_ = margin_ = 0.0;
   centroid_.setZero();
   if (points.size() < 4)
@@ -246,6 +252,9 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   // The hull's vertices about the centroid.
   const std::vector<Vec3> boundary = hullVertices();
   std::vector<Vec3> core;
+  // Each hull vertex's core point (an index into `core`), or -1 where the
+  // core is not one point per vertex (Q's own vertices, below).
+  std::vector<int> core_of(boundary.size(), -1);
   if (m > 0.0) {
     // The inner parallel body Q = {x : n_f . x <= o_f - m} (every face plane
     // moved in by m: Q (+) ball(m) is the hull with its edges and corners
@@ -293,15 +302,25 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
           if (q_vertices[i].dot(d) > q_vertices[best].dot(d)) best = i;
         return q_vertices[best];
       };
-      for (const Vec3& v : boundary) {
+      for (std::size_t i = 0; i < boundary.size(); ++i) {
+        const Vec3& v = boundary[i];
         const auto at_v = [&](const Vec3&) { return v; };
         const detail::GjkResult g = detail::gjkDistance(q_support, at_v, Vec3(-v), diameter);
         const Vec3 x = g.status == detail::GjkStatus::kSeparated ? g.point_a : v;
-        bool duplicate = false;
-        for (const Vec3& y : core) duplicate |= (x - y).norm() <= 1e-9 * diameter;
-        if (!duplicate && x.allFinite()) core.push_back(x);
+        if (!x.allFinite()) continue;
+        int same = -1;
+        for (std::size_t j = 0; j < core.size() && same < 0; ++j)
+          if ((x - core[j]).norm() <= 1e-9 * diameter) same = static_cast<int>(j);
+        if (same < 0) {
+          same = static_cast<int>(core.size());
+          core.push_back(x);
+        }
+        core_of[i] = same;
       }
-      if (core.size() < 4) core = q_vertices;
+      if (core.size() < 4) {
+        core = q_vertices;
+        std::fill(core_of.begin(), core_of.end(), -1);
+      }
     }
     if (core.size() < 4) {
       // The dual hull failed (it should not): scale the hull about the
@@ -309,15 +328,53 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
       // least m (Q contains this core).
       core.clear();
       const double k = 1.0 - m / inradius;
-      for (const Vec3& p : boundary) core.push_back(k * p);
+      for (std::size_t i = 0; i < boundary.size(); ++i) {
+        core.push_back(k * boundary[i]);
+        core_of[i] = static_cast<int>(i);
+      }
     }
   } else {
     core = boundary;  // a sharp hull is its own core
+    for (std::size_t i = 0; i < boundary.size(); ++i) core_of[i] = static_cast<int>(i);
+  }
+  // Each core point's faces (supportFace): a core point is on the faces its
+  // hull vertex is on (the core's faces are the hull's moved in by m, with
+  // the same normals); without that correspondence, on those it lies on
+  // within rounding once moved in.
+  std::vector<Vec3> face_normals;
+  std::vector<std::vector<std::uint32_t>> faces_of(core.size());
+  const bool mapped = std::find(core_of.begin(), core_of.end(), -1) == core_of.end();
+  for (const detail::HullPlane& f : planes) {
+    const std::uint32_t index = static_cast<std::uint32_t>(face_normals.size());
+    bool any = false;
+    if (mapped) {
+      for (std::size_t i = 0; i < boundary.size(); ++i)
+        if (onPlane(f, boundary[i])) {
+          std::vector<std::uint32_t>& list = faces_of[static_cast<std::size_t>(core_of[i])];
+          if (list.empty() || list.back() != index) list.push_back(index);
+          any = true;
+        }
+    } else {
+      for (std::size_t j = 0; j < core.size(); ++j)
+        if (f.normal.dot(core[j]) - (f.offset - m) >= -1e-6 * diameter) {
+          faces_of[j].push_back(index);
+          any = true;
+        }
+    }
+    if (any) face_normals.push_back(f.normal);
+  }
+  std::vector<std::uint32_t> point_face_begin{0}, point_faces;
+  for (const std::vector<std::uint32_t>& list : faces_of) {
+    point_faces.insert(point_faces.end(), list.begin(), list.end());
+    point_face_begin.push_back(static_cast<std::uint32_t>(point_faces.size()));
   }
   for (Vec3& x : core) x += centroid;
 
   points_ = points;
   core_ = std::move(core);
+  face_normals_ = std::move(face_normals);
+  point_face_begin_ = std::move(point_face_begin);
+  point_faces_ = std::move(point_faces);
   centroid_ = centroid;
   diameter_ = diameter;
   inradius_ = inradius;
@@ -339,16 +396,55 @@ Vec3 ConvexHull::support(const Vec3& d) const {
 
 int ConvexHull::supportFace(const Vec3& d, Vec3* out) const {
   const Vec3 u = normalizedOr(d, Vec3::UnitZ());
+  std::size_t extreme = 0;
   double top = -std::numeric_limits<double>::infinity();
-  for (const Vec3& p : core_) top = std::max(top, p.dot(u));
+  for (std::size_t i = 0; i < core_.size(); ++i) {
+    const double h = core_[i].dot(u);
+    if (h > top) top = h, extreme = i;
+  }
   const double floor = top - kFaceSlope * diameter_;
+  // Which points join the extreme one: those within the slope times the
+  // size below it that lie on a face facing u (within 60 degrees), and the
+  // other ends of the extreme point's edges level with it to the slope (an
+  // edge normal to u between steeper faces: a wedge's edge). Not a point
+  // of the far side: of a 2 x 2 x 0.1 plate lying flat (the window holds its
+  // top face), the top corners of the side facing down by a fraction of a
+  // degree lie just outside the bottom ones seen along u, and the plane
+  // projection (clippedSupportFace) kept them in their place, 0.1 above the
+  // floor: dropped, and the plate was held at its one deepest point.
+  const auto joins = [&](std::uint32_t i, double h) {
+    if (i == extreme) return true;
+    if (!(h >= floor)) return false;
+    const std::uint32_t* faces = point_faces_.data() + point_face_begin_[i];
+    const std::uint32_t* faces_end = point_faces_.data() + point_face_begin_[i + 1];
+    for (const std::uint32_t* f = faces; f != faces_end; ++f)
+      if (face_normals_[*f].dot(u) >= kFacingCosine) return true;
+    // Faces on both (ascending lists): 2 for an edge between them.
+    const std::uint32_t* e = point_faces_.data() + point_face_begin_[extreme];
+    const std::uint32_t* e_end = point_faces_.data() + point_face_begin_[extreme + 1];
+    int shared = 0;
+    for (const std::uint32_t* f = faces; f != faces_end && e != e_end;) {
+      if (*f < *e) {
+        ++f;
+      } else if (*e < *f) {
+        ++e;
+      } else {
+        ++shared, ++f, ++e;
+      }
+    }
+    if (shared < 2) return false;
+    const Vec3 along = core_[i] - core_[extreme];
+    const double drop = top - h;
+    return drop <= kFaceSlope * (along + drop * u).norm();
+  };
   // Deepest first (ties by index), at most kMaxFacePoints: insertion into a
   // small sorted array, no allocation.
   int n = 0;
   double heights[kMaxFacePoints];
-  for (const Vec3& p : core_) {
+  for (std::uint32_t i = 0; i < core_.size(); ++i) {
+    const Vec3& p = core_[i];
     const double h = p.dot(u);
-    if (h < floor) continue;
+    if (!joins(i, h)) continue;
     int at = n;
     while (at > 0 && heights[at - 1] < h) --at;
     if (at >= kMaxFacePoints) continue;

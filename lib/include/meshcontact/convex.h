@@ -228,8 +228,12 @@ class ConvexHull final : public SupportShape {
   Vec3 support(const Vec3& direction) const override;
   double margin() const override { return margin_; }
   Vec3 center() const override { return centroid_; }
-  /// Core points whose height along `direction` is within sin(~3 deg) of the
-  /// diameter of the extreme one, deepest first, at most kMaxFacePoints.
+  /// The extreme core point along `direction`, the core points whose height
+  /// is within sin(~3 deg) of the diameter of it that lie on a face facing
+  /// `direction` (within 60 degrees), and the other ends of its edges that
+  /// lie level with it to that slope; deepest first, at most kMaxFacePoints.
+  /// Not the far side of a hull thinner than that height (a board's top
+  /// face): its corners would stand for the bottom ones in the face.
   int supportFace(const Vec3& direction, Vec3* out) const override;
   /// kInvalidShape when build() has not succeeded.
   Status validate() const override;
@@ -237,6 +241,12 @@ class ConvexHull final : public SupportShape {
  private:
   std::vector<Vec3> points_;
   std::vector<Vec3> core_;
+  // The hull's faces' unit outward normals, and the faces each core point is
+  // on (indices into face_normals_, ascending): core_[i]'s in
+  // point_faces_[point_face_begin_[i], point_face_begin_[i + 1]).
+  std::vector<Vec3> face_normals_;
+  std::vector<std::uint32_t> point_face_begin_;
+  std::vector<std::uint32_t> point_faces_;
   Vec3 centroid_ = Vec3::Zero();
   double diameter_ = 0.0;
   double inradius_ = 0.0;
