@@ -31,7 +31,12 @@
 //     one, plus the ends of a line contact when K lies along the edge (K's
 //     supporting face along -normal, its part over the edge: each end within
 //     reach and within manifold_angle_deg of the normal as seen from the
-//     edge, its depth the margin minus its own distance).
+//     edge, its depth the margin minus its own distance). An edge or vertex
+//     patch also carries the triangle's part of K's supporting face along
+//     -n, written where it continues a face contact of its plane (within 3
+//     degrees) that holds its feature: a box lying on a tessellated floor,
+//     tilted by more than the face test's 1e-4, keeps its whole footprint,
+//     not only the part over the triangle under its lowest corner.
 //   - Deep penetration (K itself touches a triangle, i.e. penetration beyond
 //     the margin somewhere): the whole query is redone with K shrunk toward
 //     the shape's center() by 1/2, 1/4, then to the center point itself,
