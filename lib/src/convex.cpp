@@ -1152,9 +1152,12 @@ struct ConvexNarrowphase {
       if (counters->support_not_finite) return PatchOutcome::kDegenerate;
       p.points[0] = on_core - margin * u;
       p.depths[0] = margin - d;
-      if constexpr (!kChecking)
+      if constexpr (kChecking) {
+        return PatchOutcome::kContact;  // whether, not where: no line's ends, no face part
+      } else {
         if (p.feature.type == FeatureType::kEdge) addLineEnds(tri, p.feature.index, u, g.point_a, p);
-      return withFacePart(tri, n, gap, PatchOutcome::kContact, p);
+        return withFacePart(tri, n, gap, PatchOutcome::kContact, p);
+      }
     }
     if (face) return deepFacePatch(tri, n, u, gap, low_full, p, &clipped);
     return withFacePart(tri, n, gap, pointPatch(tri, u, p), p, &clipped);
