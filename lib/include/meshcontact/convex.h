@@ -236,9 +236,11 @@ class ConvexHull final : public SupportShape {
   /// The extreme core point along `direction`, the core points whose height
   /// is within sin(~3 deg) of the diameter of it that lie on a face facing
   /// `direction` (within 60 degrees), and the other ends of its edges that
-  /// lie level with it to that slope; deepest first, at most kMaxFacePoints.
-  /// Not the far side of a hull thinner than that height (a board's top
-  /// face): its corners would stand for the bottom ones in the face.
+  /// lie level with it to that slope; deepest first. Not the far side of a
+  /// hull thinner than that height (a board's top face): its corners would
+  /// stand for the bottom ones in the face. More than kMaxFacePoints (a
+  /// many-sided prism's cap): the outline's, the farthest from their mean in
+  /// each of kMaxFacePoints sectors, with the extreme point.
   int supportFace(const Vec3& direction, Vec3* out) const override;
   /// kInvalidShape when build() has not succeeded.
   Status validate() const override;
