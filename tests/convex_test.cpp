@@ -973,23 +973,23 @@ TEST(ConvexScenes, OverhangingACliffSunkPastTheMarginIsHeldByTheLedge) {
   }
 }
 
-// A board lying on a tessellated floor (0.5 m cells), tilted by up to 1e-3
-// rad and sunk so that its four bottom corners are all below the floor (by
-// 1e-5 to 1e-3 past the one the tilt lifts most): its contacts are up (to
-// its tilt), on its bottom at their depths, and their outline holds its
-// center by a fifth of its half-width at least. Two defects each lost most of the footprint:
-// the triangles under the board but not under its lowest corner met the
-// core at an edge or vertex and were voided, with no face part in the
-// first pass (a 0.5 m cube hull: 1,321 of the 2,000 placements below); and
-// a board thinner than the supporting face's slack had its top corners
-// stand for bottom ones (ConvexMargin.ABoardsSupportingFaceIsItsBottom; a
-// 2 x 2 x 0.1 board: 1,136 placements with neither fixed, 580 with the face
-// parts alone). A 1 x 1 x 0.004 plate completes the set. Prisms of 32 and
-// 64 sides standing on a cap: supportFace gave the deepest 16 of the cap's
-// points, level to rounding, one half of its rim (1,885 and 1,928 of 2,000
-// placements before it thinned them out to the outline, a point per
-// sector).
-TEST(ConvexScenes, ABoardLyingOnAFloorKeepsItsFootprint) {
+// A hull lying on a face on a tessellated floor (0.5 m cells), tilted by up
+// to 1e-3 rad and sunk so that the face's corners are all below the floor
+// (by 1e-5 to 1e-3 past the one the tilt lifts most): its contacts are up
+// (to its tilt), on its bottom at their depths, and their outline holds its
+// axis by a fifth of its half-width at least. Three defects each lost most
+// of the footprint (placements of the 2,000 below):
+//  - the triangles under the face but not under its lowest corner met the
+//    core at an edge or vertex and were voided, with no face part in the
+//    first pass (a 0.5 m cube: 1,321);
+//  - a board thinner than the supporting face's slack had its top corners
+//    stand for bottom ones (ConvexMargin.ABoardsSupportingFaceIsItsBottom;
+//    a 2 x 2 x 0.1 board: 1,136 with neither fixed, 580 with the face parts
+//    alone; a 1 x 1 x 0.004 plate: 0);
+//  - a cap of more than 16 points (prisms of 32 and 64 sides standing on
+//    one) gave its deepest 16, level to rounding: one half of its rim
+//    (1,885 and 1,928).
+TEST(ConvexScenes, AHullLyingOnAFaceKeepsItsFootprint) {
   const TriangleMesh floor = testing::buildMesh(scenes::flatFloor(16, 16, 0.5, 71));
   QuerySettings settings;
   settings.contact_distance = 0.01;

@@ -1204,7 +1204,7 @@ struct ConvexNarrowphase {
   // tilted by up to 1e-3 rad on a floor of 0.5 cells, sunk 1e-5 to 1e-3 past
   // its corners, was held by points whose outline missed its center (by a
   // fifth of its half-width) at 1,321 of 2,000 placements
-  // (ConvexScenes.ABoardLyingOnAFloorKeepsItsFootprint). In the deeper
+  // (ConvexScenes.AHullLyingOnAFaceKeepsItsFootprint). In the deeper
   // passes the scaled core is smaller than the shape: a cylinder lying on
   // its side, sunk past its margin, has a scaled side line half as long,
   // and each triangle under the rest of the line got the scaled core's

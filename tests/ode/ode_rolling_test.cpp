@@ -330,7 +330,7 @@ TEST(OdeRolling, CylinderRollsLikeOnAPlane) {
 // (within 2x: 1.7e-6 rad/s against 1.8e-6). It rocked at 0.0119 rad/s
 // while the convex path's first pass gave face points over the triangle
 // under its lowest corner only, and its supporting face took its top
-// corners for bottom ones (ConvexScenes.ABoardLyingOnAFloorKeepsItsFootprint).
+// corners for bottom ones (ConvexScenes.AHullLyingOnAFaceKeepsItsFootprint).
 // Sliding, its peak angular velocity is printed, not checked: 4.1e-4 rad/s
 // against the plane's 9.3e-5 (before those fixes: 9.5e-5).
 TEST(OdeRolling, ConvexBoxesRestAndSlideLikeOnAPlane) {
