@@ -1642,14 +1642,7 @@ struct ConvexNarrowphase {
     // nearly horizontal; 7% of the hulls and 2% of the cylinders placed at
     // random over that terrain had such a contact, and whether the
     // midphase's box held that triangle turned on the query's frame.)
-    if (!(p.distance <= contact_distance) && !fullShapeReaches(tri)) {
-      // Ranked after any patch at its distance: the two triangles of an
-      // edge, equally near the scaled core, give it the same normal, and
-      // the one the shape reaches must keep its point rather than be voided
-      // by this one. (Which of the two came first was rounding's choice.)
-      p.distance += 1e-9 * size;
-      return detail::PatchOutcome::kContact;
-    }
+    if (unreached(tri, p)) return detail::PatchOutcome::kContact;
     // The point, once it is kept (its depth is the level's, whichever point
     // of the level).
     if (p.feature.type == FeatureType::kEdge) {
@@ -1660,6 +1653,20 @@ struct ConvexNarrowphase {
     p.points[0] = point;
     p.depths[0] = depth;
     return detail::PatchOutcome::kContact;
+  }
+
+  // Deep pass, a patch whose sort key (the scaled core's distance) is beyond
+  // the contact distance: when the full shape does not reach its triangle
+  // either (fullShapeReaches), it gets no point and still voids, ranked
+  // after any patch at its distance: the two triangles of an edge, equally
+  // near the scaled core, give it the same normal, and the one the shape
+  // reaches must keep its point rather than be voided by this one. (Which
+  // of the two came first was rounding's choice.)
+  bool unreached(const Vec3 tri[3], detail::Patch& p) const {
+    if (p.distance <= contact_distance || fullShapeReaches(tri)) return false;
+    p.distance += 1e-9 * size;
+    p.count = 0;
+    return true;
   }
 
   // Deep pass: whether the full shape comes within the contact distance of
@@ -1824,20 +1831,14 @@ struct ConvexNarrowphase {
     double deepest = -std::numeric_limits<double>::infinity();
     for (int i = 0; i < count; ++i) deepest = std::max(deepest, depths[i]);
     const double witness_depth = n.dot(tri[0] - witness);
-    if (count == 0 && !witness_over && !(p.distance <= contact_distance) && !fullShapeReaches(tri)) {
-      // Deep pass, nothing of the shape over the triangle within reach, and
-      // the witness (the shape's extreme along -n) lies beside it: its depth
-      // is the projections' overlap on n, not a distance, as in pointPatch.
-      // Beyond reach of the full shape, no point; the patch still voids. (A
-      // box sunk 0.13 into the floor at a step's foot, 0.023 from the wall:
-      // its extreme along the wall's normal, under the floor, beside the
-      // wall's triangle, gave a wall contact 0.007 apart, which held the box
-      // off the wall.) Ranked after a patch at its distance, as there.
-      if (counters->support_not_finite) return detail::PatchOutcome::kDegenerate;
-      p.distance += 1e-9 * size;
-      p.count = 0;
-      return detail::PatchOutcome::kContact;
-    }
+    // Deep pass, nothing of the shape over the triangle within reach, and
+    // the witness (the shape's extreme along -n) beside it: its depth is the
+    // projections' overlap on n, not a distance, as in pointPatch. Beyond
+    // reach of the full shape, no point; the patch still voids. (A box sunk
+    // 0.13 into the floor at a step's foot, 0.023 from the wall: its extreme
+    // along the wall's normal, under the floor, beside the wall's triangle,
+    // gave a wall contact 0.007 apart, which held the box off the wall.)
+    if (count == 0 && !witness_over && unreached(tri, p)) return detail::PatchOutcome::kContact;
     if (count == 0 || (witness_over && witness_depth > deepest + 1e-9 * size)) {
       points[count] = witness;
       depths[count] = witness_depth;

@@ -199,8 +199,7 @@ class World {
                        double density = 1000) {
     const Vec3 h = sides / 2;
     std::vector<dReal>& points = convex_points_.emplace_back();
-    for (int i = 0; i < 8; ++i)
-      points.insert(points.end(), {(i & 1) ? h.x() : -h.x(), (i & 2) ? h.y() : -h.y(), (i & 4) ? h.z() : -h.z()});
+    for (const Vec3& corner : scenes::boxCorners(h)) points.insert(points.end(), {corner.x(), corner.y(), corner.z()});
     std::vector<dReal>& planes = convex_planes_.emplace_back(std::initializer_list<dReal>{
         1, 0, 0, h.x(), -1, 0, 0, h.x(), 0, 1, 0, h.y(), 0, -1, 0, h.y(), 0, 0, 1, h.z(), 0, 0, -1, h.z()});
     // Counter-clockwise seen from outside, as the planes' order.
