@@ -104,6 +104,23 @@ constexpr double kFaceSlope = 0.05;
 // direction within 60 degrees (or level with the extreme point).
 constexpr double kFacingCosine = 0.5;
 
+// Points seen along the unit vector u: their coordinates in the plane
+// normal to u, about `origin` (axes: a unit vector normal to u, and u
+// cross it; counter-clockwise about u). ConvexHull::supportFace (its
+// outline's sectors), overVertex and overEdge.
+struct ViewAlong {
+  Vec3 x_axis, y_axis, origin;
+  ViewAlong(const Vec3& u, const Vec3& o)
+      : x_axis(normalizedOr(u.unitOrthogonal(), Vec3::UnitX())), y_axis(u.cross(x_axis)), origin(o) {}
+  detail::FacePoint operator()(const Vec3& p) const {
+    detail::FacePoint f;
+    f.p = p;
+    f.x = x_axis.dot(p - origin);
+    f.y = y_axis.dot(p - origin);
+    return f;
+  }
+};
+
 // The largest explicit margin accepted, as a fraction of the inradius: the
 // core keeps at least half the shape's thickness.
 constexpr double kMaxMarginFraction = 0.5;
@@ -455,14 +472,14 @@ int ConvexHull::supportFace(const Vec3& d, Vec3* out) const {
   }
   if (count > kMaxFacePoints) {
     mean /= count;
-    const Vec3 e1 = u.unitOrthogonal(), e2 = u.cross(e1);
+    const ViewAlong view(u, mean);
     double reach[kMaxFacePoints];
     constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
     for (int k = 0; k < kMaxFacePoints; ++k) picked[k] = kNone, reach[k] = -1.0;
     for (std::uint32_t i = 0; i < core_.size(); ++i) {
       if (!joins(i, core_[i].dot(u))) continue;
-      const Vec3 r = core_[i] - mean;
-      const double x = e1.dot(r), y = e2.dot(r);
+      const detail::FacePoint seen = view(core_[i]);
+      const double x = seen.x, y = seen.y;
       const double angle = std::atan2(y, x);  // [-pi, pi]
       const int k = std::min(kMaxFacePoints - 1, static_cast<int>((angle + M_PI) * (kMaxFacePoints / (2.0 * M_PI))));
       if (picked[k] == extreme) continue;
@@ -641,22 +658,6 @@ struct PlacedCore {
     const Vec3 p = *rotation * local + translation;
     out = scale == 1.0 ? p : scaledAbout(center, scale, p);
     return true;
-  }
-};
-
-// Points seen along the unit vector u: their coordinates in the plane
-// normal to u, about `origin` (axes: a unit vector normal to u, and u
-// cross it; counter-clockwise about u). overVertex and overEdge.
-struct ViewAlong {
-  Vec3 x_axis, y_axis, origin;
-  ViewAlong(const Vec3& u, const Vec3& o)
-      : x_axis(normalizedOr(u.unitOrthogonal(), Vec3::UnitX())), y_axis(u.cross(x_axis)), origin(o) {}
-  detail::FacePoint operator()(const Vec3& p) const {
-    detail::FacePoint f;
-    f.p = p;
-    f.x = x_axis.dot(p - origin);
-    f.y = y_axis.dot(p - origin);
-    return f;
   }
 };
 
