@@ -597,6 +597,20 @@ namespace {
 // The scales of the core about its center, pass by pass (convex.h, deep
 // penetration): the core itself, halved, quartered, then the center alone.
 constexpr double kPassScales[] = {1.0, 0.5, 0.25, 0.0};
+// Round-off on lengths, times the query's magnitude: the shape's size plus
+// its distance from the origin, which bound the cancellation in placing the
+// core and in moving a triangle to it (the box path's kFlat, box.cpp).
+// Pairs this far beyond the contact distance are at it: the narrowphase's
+// reach tests and the midphase's bounds take it on, and the depths given
+// back are clamped to -contact_distance. The core is built by rounding (a
+// box-shaped hull's corners moved in by the margin), so a shape set down
+// exactly on a floor sits ~1e-17 above or below its nominal place; with a
+// reach of exactly margin + contact distance, 743 of 1,000 box-shaped hulls
+// and 524 of 1,000 cylinders so set down got no contact at all
+// (ConvexScenes.SetDownExactlyOnAFloorTouches), and a dConvex cube fell for
+// a step in ODE and came back up at 1.1 cm/s.
+constexpr double kRoundOff = 1e-14;
+double roundOffReach(double size, const Vec3& center) { return kRoundOff * (size + center.cwiseAbs().maxCoeff()); }
 // The deeper passes that the first can prove void: bit k for kPassScales[k + 1].
 constexpr int kSkippablePasses = 2;
 constexpr int kAllSkippable = (1 << kSkippablePasses) - 1;
@@ -899,6 +913,8 @@ struct ConvexNarrowphase {
   const SupportShape* shape;
   Pose pose;
   double margin;
+  // The settings' contact distance plus round-off (roundOffReach): every
+  // reach test's; the query clamps the depths it gives back to the settings'.
   double contact_distance;
   double size;   // the shape's size (bounding-box diagonal), for tolerances
   Vec3 center;   // shape.center() in the query frame
@@ -1921,8 +1937,8 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
   Counters counters;
   const double size = (hi - lo).norm();
   const double radius = coreRadius(lo, hi, center);
-  ConvexNarrowphase<false> narrowphase{&shape, pose, shape.margin(), settings.contact_distance, size, center, 1.0, radius,
-                                &counters};
+  const double reach = settings.contact_distance + roundOffReach(size, center);
+  ConvexNarrowphase<false> narrowphase{&shape, pose, shape.margin(), reach, size, center, 1.0, radius, &counters};
   narrowphase.predict_intersection = shortcuts;
   narrowphase.projects = givesNearestCorePoints(shape);
   narrowphase.cos_manifold = std::cos(settings.manifold_angle_deg * (M_PI / 180.0));
@@ -1951,6 +1967,8 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     contacts.clear();
     return {ErrorCode::kInvalidShape, "the shape's support function returned a non-finite point"};
   }
+  // Within round-off beyond the contact distance: at it.
+  for (Contact& c : contacts) c.depth = std::max(c.depth, -settings.contact_distance);
   detail::reduceManifolds(contacts, settings, size, sc.manifold);
   return Status::ok();
 }
@@ -1960,7 +1978,8 @@ const char* const kNotFiniteSupport = "the shape's support function returned a n
 // A one-candidate query's contacts are the patch's points in order (the
 // filter keeps the only patch; the reduction keeps each manifold's deepest
 // point): its deepest contact is the patch's first deepest point.
-bool patchContact(detail::PatchOutcome outcome, const detail::Patch& p, const CandidateTriangle& c, Contact* out) {
+bool patchContact(detail::PatchOutcome outcome, const detail::Patch& p, const CandidateTriangle& c,
+                  double contact_distance, Contact* out) {
   if (outcome != detail::PatchOutcome::kContact || p.count <= 0) return false;
   if (out) {
     int best = 0;
@@ -1968,7 +1987,7 @@ bool patchContact(detail::PatchOutcome outcome, const detail::Patch& p, const Ca
       if (p.depths[k] > p.depths[best]) best = k;
     out->point = p.points[best];
     out->normal = p.normal;
-    out->depth = p.depths[best];
+    out->depth = std::max(p.depths[best], -contact_distance);  // runCandidates' clamp
     out->mesh = c.mesh;
     out->triangle = c.triangle;
     out->feature = p.feature;
@@ -1995,6 +2014,7 @@ Status ConvexContactProbe::prepare(const SupportShape& shape, const Pose& pose, 
   margin_ = shape.margin();
   contact_distance_ = settings.contact_distance;
   size_ = (hi - lo).norm();
+  reach_ = contact_distance_ + roundOffReach(size_, center);
   radius_ = coreRadius(lo, hi, center);
   projects_ = givesNearestCorePoints(shape);
   return Status::ok();
@@ -2014,7 +2034,7 @@ Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predi
   const Status s = detail::checkCandidates(&candidate, 1);
   if (!s) return s;
   Counters counters;
-  ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, contact_distance_, size_, center_, 1.0, radius_, &counters};
+  ConvexNarrowphase<true> narrowphase{shape_, pose_, margin_, reach_, size_, center_, 1.0, radius_, &counters};
   narrowphase.predict_intersection = true;
   narrowphase.predict_contact = predict_contact;
   narrowphase.projects = projects_;
@@ -2030,7 +2050,7 @@ Status ConvexContactProbe::replay(const CandidateTriangle& candidate, bool predi
     if (counters.support_not_finite || counters.predicted_contact || !counters.core_intersects) break;
   }
   if (counters.support_not_finite) return {ErrorCode::kInvalidShape, kNotFiniteSupport};
-  contact = counters.predicted_contact || patchContact(outcome, p, candidate, deepest);
+  contact = counters.predicted_contact || patchContact(outcome, p, candidate, contact_distance_, deepest);
   return Status::ok();
 }
 
@@ -2073,7 +2093,7 @@ Status collideConvex(const MeshInstance* instances, std::size_t count, const Sup
   Vec3 lo, hi, center;
   s = shapeBounds(shape, pose, lo, hi, center);
   if (!s) return s;
-  const Vec3 reach = Vec3::Constant(settings.contact_distance);
+  const Vec3 reach = Vec3::Constant(settings.contact_distance + roundOffReach((hi - lo).norm(), center));
   QueryScratch::Impl& sc = scratch.impl();
   detail::VertexIdentity identity;
   s = detail::gatherForFilter(instances, count, lo - reach, hi + reach, settings.key_mode, scratch, sc.candidates,

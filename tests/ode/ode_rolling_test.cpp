@@ -325,14 +325,20 @@ TEST(OdeRolling, CylinderRollsLikeOnAPlane) {
 }
 
 // A board (2 x 2 x 0.1) and a cube (0.5) as box-shaped convex hulls
-// (dConvex) at rest on the tessellated floor and its tiles for 1 s, then
-// sliding: at rest the override's board turns no faster than the plane's
-// (within 2x: 1.7e-6 rad/s against 1.8e-6). It rocked at 0.0119 rad/s
+// (dConvex), set down exactly on the tessellated floor and its tiles (the
+// centre at half the height), at rest for 1 s, then sliding. At rest the
+// override's board turns no faster than the plane's (within 2x: 1.7e-6
+// rad/s against 1.8e-6). It rocked at 0.0119 rad/s (set down 1e-4 deep)
 // while the convex path's first pass gave face points over the triangle
 // under its lowest corner only, and its supporting face took its top
 // corners for bottom ones (ConvexScenes.AHullLyingOnAFaceKeepsItsFootprint).
-// Sliding, its peak angular velocity is printed, not checked: 4.1e-4 rad/s
-// against the plane's 9.3e-5 (before those fixes: 9.5e-5).
+// At rest neither body moves up faster, nor settles farther, than on the
+// plane (up 3.3e-7 and 2.1e-5 m/s against the plane's 3.3e-7 and 3.2e-5;
+// 0.41 and 0.13 mm): set down exactly, they got no contact in the first
+// step, fell, and came back up at 6.0e-3 and 1.1e-2 m/s, 0.71 and 0.68 mm
+// below (ConvexScenes.SetDownExactlyOnAFloorTouches).
+// Sliding, the board's peak angular velocity is printed, not checked:
+// 4.1e-4 rad/s against the plane's 9.3e-5 (before those fixes: 9.5e-5).
 TEST(OdeRolling, ConvexBoxesRestAndSlideLikeOnAPlane) {
   const RunLength length{120, kRunSteps};
   for (const Ground& g : kGrounds) {
@@ -349,6 +355,8 @@ TEST(OdeRolling, ConvexBoxesRestAndSlideLikeOnAPlane) {
                    "; plane at rest: " + describe(rest[0]) + "; override sliding: " + describe(p[1]));
       EXPECT_TRUE(p[1].finite && rest[1].finite);
       EXPECT_LE(rest[1].angular_velocity, 2.0 * rest[0].angular_velocity);
+      EXPECT_LE(rest[1].up_velocity, 2.0 * rest[0].up_velocity);
+      EXPECT_LE(rest[1].height_deviation, 1.1 * rest[0].height_deviation);
       EXPECT_LE(rest[1].max_contacts, 4);
       EXPECT_LE(p[1].max_contacts, 4);
     }

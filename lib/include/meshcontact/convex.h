@@ -65,6 +65,11 @@
 //     triangle the core clearly crosses proves void (2-4x a resting query).
 // Then the voided-features filter (reference §5) and the optional manifold
 // reduction (QuerySettings::reduce_manifold).
+// Reach: a pair apart by up to the contact distance plus round-off (1e-14 of
+// the shape's size plus its distance from the origin) is in contact, and a
+// depth below -contact_distance comes back as -contact_distance, as in the
+// box path: K is built by rounding, so a shape set down exactly on a floor
+// (a box-shaped hull at the height of its half side) touches it.
 
 #include "meshcontact/contact.h"
 #include "meshcontact/geometry.h"
@@ -342,7 +347,8 @@ class ConvexContactProbe {
   Pose pose_;
   Vec3 center_ = Vec3::Zero();
   double margin_ = 0.0;
-  double contact_distance_ = 0.0;
+  double contact_distance_ = 0.0;  // the settings'
+  double reach_ = 0.0;             // contact_distance_ plus round-off (convex.cpp, roundOffReach)
   double size_ = 0.0;
   double radius_ = 0.0;
   bool projects_ = false;  // the shape gives its core's nearest points
