@@ -611,36 +611,60 @@ TEST(DropIn, ShallowCylinderRimUnderTheCoresRoundingGetsTheSharpContact) {
   }
 }
 
-// Boxes set down exactly on a floor (centre at z = half height, a random
-// yaw: touching to round-off) get the core's contacts through the drop-in.
-// The walk's bounds lacked the round-off the core's box query reaches by:
-// they stopped 5e-17 above the floor, and 230 of 2,000 boxes got nothing.
-TEST(DropIn, BoxSetDownExactlyOnAFloorTouches) {
+// Shapes with a flat bottom set down exactly on a floor (centre at the
+// bottom's depth below it, a random yaw and size: touching to round-off) get
+// the core's contacts through the drop-in, and the core has some. The walk's
+// bounds lacked the round-off the core's box query reaches by: they stopped
+// 5e-17 above the floor, and 230 of 2,000 boxes got nothing. The core's
+// convex path (cylinder, cone, convex) reached exactly its margin plus the
+// contact distance, and its core, built by rounding, sat up to ~1e-17 above
+// or below its place (ConvexScenes.SetDownExactlyOnAFloorTouches): the core
+// gave no contact to 505 cylinders, 115 cones and 103 hex prisms of the
+// 1,000 each, and the drop-in (its shape placed by other roundings) differed
+// from the core at as many.
+TEST(DropIn, ShapesSetDownExactlyOnAFloorTouch) {
   const SceneMesh floor = testing::unitGrid(8);
   const TriangleMesh core_mesh = testing::buildMesh(floor);
+  const MeshInstance instance{&core_mesh, Pose::identity()};
   const ::fcl::CollisionObjectd mesh(fclModel<::fcl::OBBRSSd>(floor));
   scenes::Rng rng(53);
   fcl::Scratch scratch;
   QueryScratch core_scratch;
   std::vector<Contact> core_contacts;
-  for (int i = 0; i < 2000; ++i) {
-    const Vec3 e = rng.uniformVector(Vec3::Constant(0.1), Vec3::Constant(0.5));
-    Pose pose;
-    pose.rotation = Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3::UnitZ()).toRotationMatrix();
-    pose.translation = Vec3{rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z()};
-    const ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(2.0 * e), toTransform(pose));
-    ::fcl::CollisionResultd result;
-    ASSERT_TRUE(fcl::collide(&mesh, &box, contactsRequest(), result, fcl::Options(), scratch).isOk());
-    ASSERT_TRUE(collideBox(core_mesh, Box{e}, pose, QuerySettings(), core_scratch, core_contacts).isOk());
-    const std::string config = "box " + std::to_string(i) + ": half extents " + testing::str(e) + " at " +
-                               testing::str(pose.translation);
-    ASSERT_FALSE(core_contacts.empty()) << config;
-    std::vector<::fcl::Contactd> expected;
-    for (const Contact& c : core_contacts)
-      expected.push_back(expectedContact(c, Pose::identity(), true, mesh.collisionGeometry().get(),
-                                         box.collisionGeometry().get()));
-    EXPECT_EQ(compareContacts(contactsOf(result), expected, 0.0), "") << config;
-    if (::testing::Test::HasFailure()) return;
+  const std::pair<Kind, const char*> kinds[] = {
+      {Kind::kBox, "box"}, {Kind::kCylinder, "cylinder"}, {Kind::kCone, "cone"}, {Kind::kConvex, "convex"}};
+  for (const auto& [kind, name] : kinds) {
+    // The 2,000 boxes of the round-off in the walk's bounds, then 1,000 of each other shape.
+    const int placements = kind == Kind::kBox ? 2000 : 1000;
+    int touching = 0;
+    for (int i = 0; i < placements; ++i) {
+      // Its bottom e.z() below its centre: FCL's dimensions of a box (sides),
+      // a cylinder or cone (radius, length) and the hex prism (radius, half
+      // height).
+      const Vec3 e = rng.uniformVector(Vec3::Constant(0.1), Vec3::Constant(0.5));
+      ShapeCase shape{kind, name, 2.0 * e};
+      if (kind == Kind::kCylinder || kind == Kind::kCone) shape.dims = Vec3(e.x(), 2.0 * e.z(), 0.0);
+      if (kind == Kind::kConvex) shape.dims = Vec3(e.x(), e.z(), 0.0);
+      Pose pose;
+      pose.rotation = Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3::UnitZ()).toRotationMatrix();
+      pose.translation = Vec3{rng.uniform(1.5, 6.5), rng.uniform(1.5, 6.5), e.z()};
+      const ::fcl::CollisionObjectd object(shape.make(), toTransform(pose));
+      ::fcl::CollisionResultd result;
+      ASSERT_TRUE(fcl::collide(&mesh, &object, contactsRequest(), result, fcl::Options(), scratch).isOk());
+      ASSERT_TRUE(shape.core(&instance, 1, *object.collisionGeometry(), pose, QuerySettings(), core_scratch,
+                             core_contacts)
+                      .isOk());
+      const std::string config = std::string(name) + " " + std::to_string(i) + ": dims " +
+                                 testing::str(shape.dims) + " at " + testing::str(pose.translation);
+      touching += !core_contacts.empty();
+      std::vector<::fcl::Contactd> expected;
+      for (const Contact& c : core_contacts)
+        expected.push_back(expectedContact(c, Pose::identity(), true, mesh.collisionGeometry().get(),
+                                           object.collisionGeometry().get()));
+      EXPECT_EQ(compareContacts(contactsOf(result), expected, 0.0), "") << config;
+      if (::testing::Test::HasFailure()) return;
+    }
+    EXPECT_EQ(touching, placements) << name << "s with contacts";
   }
 }
 
