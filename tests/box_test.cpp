@@ -914,11 +914,7 @@ TEST(BoxFigures, EdgeDownOnARidgesApexPushesAlongTheSlopes) {
 // as every triangle's closest feature, all voided but one: 3 points on one
 // triangle's corner (50 of 10,000 on the grid in a rate check).
 TEST(BoxFloor, SetDownExactlyOnAFloorTouches) {
-  scenes::SceneMesh quad;  // (the vertices added one by one: an argument list's order is unspecified)
-  const std::uint32_t q0 = quad.addVertex(Vec3(0, 0, 0)), q1 = quad.addVertex(Vec3(8, 0, 0));
-  const std::uint32_t q2 = quad.addVertex(Vec3(8, 8, 0)), q3 = quad.addVertex(Vec3(0, 8, 0));
-  quad.addTriangle(q0, q1, q2);
-  quad.addTriangle(q0, q2, q3);
+  const scenes::SceneMesh quad = testing::unitGrid(1, 8.0 * Mat3::Identity());  // one 8 m cell
   const scenes::SceneMesh grid = testing::unitGrid(8);
   QueryScratch scratch;
   std::vector<Contact> contacts;

@@ -1089,13 +1089,9 @@ TEST(ConvexScenes, AHullLyingOnAFaceKeepsItsFootprint) {
 // cylinders on each floor got no contact at all. In ODE a dConvex cube set
 // down so fell for a step and bounced (OdeRolling.ConvexBoxesRestAndSlide...).
 TEST(ConvexScenes, SetDownExactlyOnAFloorTouches) {
-  scenes::SceneMesh quad;  // (the vertices added one by one: an argument list's order is unspecified)
-  const std::uint32_t q0 = quad.addVertex(Vec3(0, 0, 0)), q1 = quad.addVertex(Vec3(8, 0, 0));
-  const std::uint32_t q2 = quad.addVertex(Vec3(8, 8, 0)), q3 = quad.addVertex(Vec3(0, 8, 0));
-  quad.addTriangle(q0, q1, q2);
-  quad.addTriangle(q0, q2, q3);
-  const SceneMesh floors[3] = {quad, testing::unitGrid(8), scenes::flatFloor(16, 16, 0.5, 73)};
-  const char* const floor_names[3] = {"quad", "grid", "jittered"};
+  const SceneMesh floors[3] = {testing::unitGrid(1, 8.0 * Mat3::Identity()), testing::unitGrid(8),
+                               scenes::flatFloor(16, 16, 0.5, 73)};
+  const char* const floor_names[3] = {"one 8 m cell", "grid", "jittered"};
   QueryScratch scratch;
   std::vector<Contact> contacts;
   int placements = 0;
