@@ -61,10 +61,13 @@ TEST(GatherNearSphere, SubsetOfTheBoxQueryKeepingEveryTouchedTriangle) {
 // vertex index to key in front of the position map (scratch.h): they must
 // still equal exactly where two corners coincide. Checked against
 // assignPositionKeys, which hashes every corner, on instances that stress
-// the cache: the same mesh twice under different poses (equal indices,
-// different positions), a mesh of more vertices than the cache has slots
-// (indices that share a slot), tiles whose boundary corners coincide across
-// meshes, and an unwelded mesh (equal positions under different indices).
+// the cache: a mesh of more vertices than the cache has slots (indices that
+// share a slot), tiles whose boundary corners coincide across meshes, an
+// unwelded mesh (equal positions under different indices), all of them
+// with equal indices at other positions in the other meshes. Once more with
+// the terrain a second time under another pose: meshes of different poses
+// are gathered on index keys, welded (weldCorners), then hashed corner by
+// corner, and their keys must agree just the same.
 TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
   const TriangleMesh terrain = testing::buildMesh(scenes::sineTerrain(24, 24, 0.5, 0.4, 3.0, 7));
   const std::vector<scenes::SceneMesh> tile_meshes = scenes::tiledFloor(2, 2, 3, 0.5, 9);
@@ -74,50 +77,56 @@ TEST(GatherNearSphere, PositionKeysEqualExactlyWhereCornersCoincide) {
   Pose shifted;  // the terrain again, a quarter turn and a shift away: overlapping, no corner in common
   shifted.rotation = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
   shifted.translation = Vec3(12.0, 0.0, 0.25);
-  std::vector<MeshInstance> instances{{&terrain, Pose::identity()}, {&terrain, shifted}, {&soup, Pose::identity()}};
-  for (const TriangleMesh& t : tiles) instances.push_back({&t, Pose::identity()});
+  std::vector<MeshInstance> one_pose{{&terrain, Pose::identity()}, {&soup, Pose::identity()}};
+  for (const TriangleMesh& t : tiles) one_pose.push_back({&t, Pose::identity()});
+  std::vector<MeshInstance> two_poses = one_pose;
+  two_poses.insert(two_poses.begin() + 1, MeshInstance{&terrain, shifted});
   ASSERT_GT(terrain.vertexCount(), 128u);
 
   // Run once as is and once with the cache's generation just short of its
   // wrap (each instance with hits takes the next one), so the wrap, which
   // clears the cache, happens within the first queries.
-  for (const std::uint32_t start : {0u, 0xfffffff0u}) {
-    scenes::Rng rng(12);
-    QueryScratch scratch;
-    scratch.impl().vertex_key_generation = start;
-    std::vector<CandidateTriangle> gathered, hashed;
-    std::size_t shared = 0, both_terrains = 0;
-    const int queries = testing::scaled(1000);
-    for (int i = 0; i < queries; ++i) {
-      const Sphere bound{rng.uniformVector(Vec3(0.0, 0.0, -0.5), Vec3(6.0, 6.0, 0.5)), rng.uniform(0.1, 1.2)};
-      ASSERT_TRUE(gatherCandidatesNearSphere(instances.data(), instances.size(), bound, KeyMode::kVertexPosition,
-                                             scratch, gathered)
-                      .isOk());
-      hashed = gathered;
-      ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
-      bool terrain[2] = {false, false};
-      for (std::size_t a = 0; a < gathered.size(); ++a) {
-        if (gathered[a].mesh < 2) terrain[gathered[a].mesh] = true;
-        for (std::size_t b = a; b < gathered.size(); ++b)
-          for (int k = 0; k < 3; ++k)
-            for (int l = 0; l < 3; ++l) {
-              const bool same = gathered[a].keys[k] == gathered[b].keys[l];
-              ASSERT_EQ(same, hashed[a].keys[k] == hashed[b].keys[l])
-                  << "triangles " << gathered[a].mesh << ":" << gathered[a].triangle << " corner " << k << " and "
-                  << gathered[b].mesh << ":" << gathered[b].triangle << " corner " << l;
-              ASSERT_EQ(same, gathered[a].vertices[k] == gathered[b].vertices[l]);
-              if (same && gathered[a].mesh != gathered[b].mesh) ++shared;
-            }
+  for (const std::vector<MeshInstance>* instances : {&one_pose, &two_poses})
+    for (const std::uint32_t start : {0u, 0xfffffff0u}) {
+      scenes::Rng rng(12);
+      QueryScratch scratch;
+      scratch.impl().vertex_key_generation = start;
+      std::vector<CandidateTriangle> gathered, hashed;
+      std::size_t shared = 0, both_terrains = 0;
+      const int queries = testing::scaled(1000);
+      for (int i = 0; i < queries; ++i) {
+        const Sphere bound{rng.uniformVector(Vec3(0.0, 0.0, -0.5), Vec3(6.0, 6.0, 0.5)), rng.uniform(0.1, 1.2)};
+        ASSERT_TRUE(gatherCandidatesNearSphere(instances->data(), instances->size(), bound,
+                                               KeyMode::kVertexPosition, scratch, gathered)
+                        .isOk());
+        hashed = gathered;
+        ASSERT_TRUE(assignPositionKeys(hashed.data(), hashed.size(), scratch).isOk());
+        bool terrain_met[2] = {false, false};
+        for (std::size_t a = 0; a < gathered.size(); ++a) {
+          if ((*instances)[gathered[a].mesh].mesh == &terrain)
+            terrain_met[(*instances)[gathered[a].mesh].pose.isIdentity() ? 0 : 1] = true;
+          for (std::size_t b = a; b < gathered.size(); ++b)
+            for (int k = 0; k < 3; ++k)
+              for (int l = 0; l < 3; ++l) {
+                const bool same = gathered[a].keys[k] == gathered[b].keys[l];
+                ASSERT_EQ(same, hashed[a].keys[k] == hashed[b].keys[l])
+                    << "triangles " << gathered[a].mesh << ":" << gathered[a].triangle << " corner " << k
+                    << " and " << gathered[b].mesh << ":" << gathered[b].triangle << " corner " << l;
+                ASSERT_EQ(same, gathered[a].vertices[k] == gathered[b].vertices[l]);
+                if (same && gathered[a].mesh != gathered[b].mesh) ++shared;
+              }
+        }
+        both_terrains += terrain_met[0] && terrain_met[1];
       }
-      both_terrains += terrain[0] && terrain[1];
+      EXPECT_GT(shared, 0u) << "no corner shared across meshes: the test did not exercise position keys";
+      if (instances == &two_poses) {
+        EXPECT_GT(both_terrains, static_cast<std::size_t>(queries) / 2)
+            << "the terrain's two instances (equal indices, other positions) rarely met in one query";
+      } else if (start != 0) {
+        // The cache serves meshes of one pose only.
+        EXPECT_LT(scratch.impl().vertex_key_generation, start) << "the generation never wrapped";
+      }
     }
-    EXPECT_GT(shared, 0u) << "no corner shared across meshes: the test did not exercise position keys";
-    EXPECT_GT(both_terrains, static_cast<std::size_t>(queries) / 2)
-        << "the terrain's two instances (equal indices, other positions) rarely met in one query";
-    if (start != 0) {
-      EXPECT_LT(scratch.impl().vertex_key_generation, start) << "the generation never wrapped";
-    }
-  }
 }
 
 // assignPositionKeysFromIndices, for midphases that know the corners'

@@ -293,5 +293,89 @@ TEST(PositionIdentity, EdgeSharedByPositionOnBothSidesOfTheScanLimit) {
   }
 }
 
+// weldCorners (filter.h), the seam weld for meshes of different poses:
+// corners of different meshes within the tolerance become one position,
+// the smallest of the group by value, whatever the candidates' order;
+// corners of one mesh are never joined to each other; non-finite corners
+// are left alone; bad arguments are errors.
+TEST(PositionIdentity, WeldCornersJoinsOtherMeshesCornersWhateverTheOrder) {
+  const auto bitwiseEqual = [](const Vec3& x, const Vec3& y) {
+    return std::memcmp(x.data(), y.data(), sizeof(Vec3)) == 0;
+  };
+  const auto next = [](double x, int ulps) {
+    for (int i = 0; i < std::abs(ulps); ++i) x = std::nextafter(x, ulps > 0 ? INFINITY : -INFINITY);
+    return x;
+  };
+  const Vec3 a(1.0, 2.0, 3.0), b(4.0, 2.0, 3.0), c(1.0, 5.0, 3.0), far(9.0, 9.0, 9.0);
+  const Vec3 a1(next(a.x(), 3), a.y(), next(a.z(), -2));  // mesh 1's copy of a, off by ulps
+  const Vec3 a2(next(a.x(), -1), next(a.y(), 1), a.z());   // mesh 2's
+  const Vec3 b1(b.x(), next(b.y(), 4), b.z());             // mesh 1's copy of b
+  const Vec3 c0(c.x(), next(c.y(), 1), c.z());             // mesh 0 again, beside c: not joined to it
+  const Vec3 nan(std::nan(""), 0.0, 0.0);
+  const auto triangle = [](std::uint32_t mesh, std::uint32_t t, const Vec3& p, const Vec3& q, const Vec3& r) {
+    CandidateTriangle x;
+    x.mesh = mesh;
+    x.triangle = t;
+    x.vertices[0] = p;
+    x.vertices[1] = q;
+    x.vertices[2] = r;
+    return x;
+  };
+  const std::vector<CandidateTriangle> input{
+      triangle(0, 0, a, b, c), triangle(0, 1, c0, b, far), triangle(1, 0, a1, b1, far + Vec3(1, 0, 0)),
+      triangle(2, 0, far + Vec3(0, 1, 0), a2, nan)};
+  const double tolerance = 1e-12 * 10.0;
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> welded = input;
+  ASSERT_TRUE(weldCorners(welded.data(), welded.size(), tolerance, scratch).isOk());
+  // The smallest of a, a1, a2 by value: a2 (x one ulp below).
+  const Vec3 a_min(a2.x(), a2.y(), a2.z());
+  EXPECT_TRUE(bitwiseEqual(welded[0].vertices[0], a_min));
+  EXPECT_TRUE(bitwiseEqual(welded[2].vertices[0], a_min));
+  EXPECT_TRUE(bitwiseEqual(welded[3].vertices[1], a_min));
+  EXPECT_TRUE(bitwiseEqual(welded[0].vertices[1], b));  // b < b1
+  EXPECT_TRUE(bitwiseEqual(welded[1].vertices[1], b));
+  EXPECT_TRUE(bitwiseEqual(welded[2].vertices[1], b));
+  EXPECT_TRUE(bitwiseEqual(welded[0].vertices[2], c));  // one mesh's: left apart
+  EXPECT_TRUE(bitwiseEqual(welded[1].vertices[0], c0));
+  EXPECT_TRUE(bitwiseEqual(welded[1].vertices[2], far));  // alone
+  EXPECT_TRUE(std::isnan(welded[3].vertices[2].x()));
+  // Within tolerance only: at a tolerance below the 4-ulp gap, b1 stays.
+  std::vector<CandidateTriangle> tight = input;
+  ASSERT_TRUE(weldCorners(tight.data(), tight.size(), 2.0 * (b1.y() - b.y()) / 4.0, scratch).isOk());
+  EXPECT_TRUE(bitwiseEqual(tight[2].vertices[1], b1));
+
+  // Any order of the candidates: the same position for every corner.
+  scenes::Rng rng(3);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<CandidateTriangle> shuffled = input;
+    for (std::size_t i = shuffled.size(); i > 1; --i)
+      std::swap(shuffled[i - 1], shuffled[static_cast<std::size_t>(rng.uniform(0.0, 1.0) * i) % i]);
+    ASSERT_TRUE(weldCorners(shuffled.data(), shuffled.size(), tolerance, scratch).isOk());
+    for (const CandidateTriangle& x : shuffled) {
+      const auto same = std::find_if(welded.begin(), welded.end(), [&](const CandidateTriangle& y) {
+        return y.mesh == x.mesh && y.triangle == x.triangle;
+      });
+      ASSERT_NE(same, welded.end());
+      for (int k = 0; k < 3; ++k) {
+        if (x.vertices[k].allFinite()) {
+          EXPECT_TRUE(bitwiseEqual(x.vertices[k], same->vertices[k]));
+        }
+      }
+    }
+  }
+  // -0 and +0 are one position, written as +0.
+  std::vector<CandidateTriangle> zeros{triangle(0, 0, Vec3(-0.0, 1, 1), b, c), triangle(1, 0, Vec3(0.0, 1, 1), b, c)};
+  ASSERT_TRUE(weldCorners(zeros.data(), zeros.size(), 0.0, scratch).isOk());
+  EXPECT_FALSE(std::signbit(zeros[0].vertices[0].x()));
+  EXPECT_FALSE(std::signbit(zeros[1].vertices[0].x()));
+
+  EXPECT_EQ(weldCorners(welded.data(), welded.size(), std::nan(""), scratch).code(), ErrorCode::kInvalidSettings);
+  EXPECT_EQ(weldCorners(welded.data(), welded.size(), -1.0, scratch).code(), ErrorCode::kInvalidSettings);
+  EXPECT_EQ(weldCorners(welded.data(), welded.size(), INFINITY, scratch).code(), ErrorCode::kInvalidSettings);
+  EXPECT_EQ(weldCorners(nullptr, 2, 1e-12, scratch).code(), ErrorCode::kInvalidSettings);
+  EXPECT_TRUE(weldCorners(nullptr, 0, 1e-12, scratch).isOk());
+}
+
 }  // namespace
 }  // namespace meshcontact

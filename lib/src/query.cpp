@@ -1,6 +1,7 @@
 // The midphase stage (gatherCandidates) and the sphere narrowphase.
 #include "meshcontact/query.h"
 
+#include "meshcontact/filter.h"
 #include "closest_point.h"
 #include "gather.h"
 #include "meshcontact/triangle.h"
@@ -57,10 +58,27 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     return {ErrorCode::kInvalidShape, "query box " + detail::describe(lo) + " - " + detail::describe(hi) +
                                           " is not finite, reaches beyond +-1e50, or has lo > hi"};
   KeyMode mode = resolveKeyMode(instances, count, key_mode);
-  if (identity && mode == KeyMode::kVertexPosition) {
-    *identity = detail::VertexIdentity::kKeysOrPositions;
+  // Meshes with different poses meet at positions that round-off may have
+  // set apart: their corners are welded (weldCorners) after the walk. The
+  // pipelines' keys are index keys anyway (`identity`); for the callers that
+  // take position keys from here, candidates are gathered with index keys
+  // when the poses differ, and position keys made after the weld (below).
+  const KeyMode resolved = mode;
+  bool weld = resolved == KeyMode::kVertexPosition && identity != nullptr;
+  if (resolved == KeyMode::kVertexPosition && !identity)
+    for (std::size_t m = 1; m < count && !weld; ++m)
+      weld = !(instances[m].pose.rotation == instances[0].pose.rotation &&
+               instances[m].pose.translation == instances[0].pose.translation);
+  if (weld) {
+    if (identity) *identity = detail::VertexIdentity::kKeysOrPositions;
     mode = KeyMode::kVertexIndex;
   }
+  // The weld's scale: the largest |translation| + |vertex| of the meshes
+  // that give candidates, and whether two of those have different poses
+  // (only those are welded: 16 tiles of one pose cost no weld).
+  double weld_scale = 0.0;
+  const Pose* first_pose = nullptr;
+  bool poses_differ = false;
   QueryScratch::Impl& sc = scratch.impl();
   const Vec3 centre = 0.5 * (lo + hi);
   const Vec3 half = 0.5 * (hi - lo);
@@ -124,6 +142,13 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     else
       mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
+    if (weld) {
+      const double reach = std::max(mesh_lo.cwiseAbs().maxCoeff(), mesh_hi.cwiseAbs().maxCoeff());
+      weld_scale = std::max(weld_scale, pose.translation.cwiseAbs().maxCoeff() + reach);
+      if (!first_pose) first_pose = &pose;
+      poses_differ = poses_differ || !(pose.rotation == first_pose->rotation &&
+                                       pose.translation == first_pose->translation);
+    }
     if (mode == KeyMode::kVertexPosition && first_position) {
       // Upper bound on distinct positions of this query: 3 per triangle of
       // this instance; the map grows if later instances add more.
@@ -171,6 +196,20 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
       if (by_position) append(Yes{}, Yes{});
       else append(Yes{}, No{});
     }
+  }
+  if (poses_differ) {
+    Status s = weldCorners(out.data(), out.size(), kWeldRoundOff * weld_scale, scratch);
+    if (!s) {
+      out.clear();
+      return s;
+    }
+  }
+  // Position keys after the weld, for the callers that take them from here
+  // (the pipelines' filter compares positions itself).
+  if (weld && !identity) {
+    sc.positions.reset(3 * out.size());
+    for (CandidateTriangle& c : out)
+      for (int k = 0; k < 3; ++k) c.keys[k] = sc.positionKeyOf(c.vertices[k]);
   }
   return Status::ok();
 }

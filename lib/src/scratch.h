@@ -63,6 +63,9 @@ struct QueryScratch::Impl {
       slot.key = key;
     }
   }
+  // weldCorners: corner numbers sorted along the sweep axis, the union-find's
+  // parents, and each group's smallest corner.
+  std::vector<std::uint32_t> weld_order, weld_parent, weld_smallest;
   // Narrowphase + filter.
   detail::FilterScratch filter;
   // Manifold reduction (capsule, box, ...).

@@ -151,6 +151,10 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
 
   Scratch::Impl& sc = scratch.impl();
   sc.candidates.clear();
+  // Objects of different poses: their corners are welded below, on the
+  // scale of their |translation| + |vertex| (the core's pipelines' rule).
+  bool poses_differ = false;
+  double weld_scale = 0.0;
   for (std::size_t j = 0; j < group_meshes.size(); ++j) {
     const ::fcl::CollisionObjectd& mo = *group_meshes[j];
     detail::MeshDesc mesh;
@@ -160,6 +164,11 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     if (!s) return s;
     const bool same_frame = mo.getTransform().matrix() == frame_tf.matrix();
     const Pose to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
+    poses_differ = poses_differ || !same_frame;
+    // The model's local bounds (CollisionObject's constructor computes them).
+    const ::fcl::CollisionGeometryd& g = *group_geometries[j];
+    weld_scale = std::max(weld_scale, to_frame.translation.cwiseAbs().maxCoeff() +
+                                          g.aabb_center.cwiseAbs().maxCoeff() + g.aabb_radius);
     const detail::QueryVolume volume =
         detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance);
     const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh) : nullptr;
@@ -182,11 +191,16 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
       if (!s) return s;
     }
   }
+  if (poses_differ) {
+    s = weldCorners(sc.candidates.data(), sc.candidates.size(), kWeldRoundOff * weld_scale, sc.query);
+    if (!s) return s;
+  }
   // The objects form one surface where their vertices meet at bitwise-equal
-  // positions (reference §6): keys that tell the objects apart (object <<
-  // 32 | vertex index; equal keys are then equal positions), and the filter
-  // matches positions for the edge and vertex contacts those keys keep
-  // (KeyMode::kVertexPosition on index keys, query.h).
+  // positions (reference §6; after the weld above): keys that tell the
+  // objects apart (object << 32 | vertex index; equal keys are then equal
+  // positions), and the filter matches positions for the edge and vertex
+  // contacts those keys keep (KeyMode::kVertexPosition on index keys,
+  // query.h).
   for (CandidateTriangle& c : sc.candidates)
     for (std::uint64_t& key : c.keys) key = static_cast<std::uint64_t>(c.mesh) << 32 | (key & 0xffffffffu);
   QuerySettings settings = options.settings;

@@ -40,6 +40,9 @@ enum class KeyMode : std::uint8_t {
   /// Exact (bitwise) vertex positions in the query frame: works across
   /// duplicated vertices and across separate meshes whose vertices meet at
   /// bitwise-equal positions (e.g. pieces authored in one frame; -0 == +0).
+  /// Meshes of different poses (pieces each in a frame of its own) meet a
+  /// few ulps apart once moved into the query frame: the pipelines first
+  /// weld their corners within round-off (weldCorners, filter.h).
   kVertexPosition,
 };
 

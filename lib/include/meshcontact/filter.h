@@ -51,6 +51,35 @@ Status assignPositionKeys(CandidateTriangle* candidates, std::size_t count, Quer
 /// sphere query. filterPatches() compares the keys as given.
 Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t count, QueryScratch& scratch);
 
+/// Joins the seams between separate meshes that each have their own pose
+/// (reference §6's race-track pieces, or one piece placed many times):
+/// moved into the query frame by different poses, two pieces' shared corner
+/// lands at positions a few ulps apart, position identity (which compares
+/// bits) sees two vertices, and the seam gives edge contacts with tilted
+/// normals. Corners of different meshes (CandidateTriangle::mesh) within
+/// `tolerance` of each other (per coordinate, query-frame units) are linked,
+/// and each linked group takes the smallest of its positions (by their bits,
+/// -0 as +0): a choice by value, so the result does not depend on the
+/// candidates' order. Corners of one mesh are never joined to each other
+/// (only through another mesh's corner); non-finite corners are left as
+/// they are. Call it before the keys are made (assignPositionKeys*), or
+/// before collide*Candidates with settings.key_mode = kVertexPosition.
+/// The pipelines (collideSphere(instances, ...) and the others) do it
+/// themselves with KeyMode::kVertexPosition (or kAuto over several meshes)
+/// when the meshes that give candidates have different poses, with a
+/// tolerance of kWeldRoundOff times the largest of their |translation| +
+/// |vertex| (max norms): pose round-off, not authoring gaps. Errors:
+/// kInvalidSettings (`candidates` null with count > 0, a tolerance not finite
+/// or < 0, more than 1.4e9 candidates).
+Status weldCorners(CandidateTriangle* candidates, std::size_t count, double tolerance, QueryScratch& scratch);
+
+/// The pipelines' weld tolerance, relative to the meshes' magnitudes (see
+/// weldCorners): a pose moves a vertex with an error of a few ulps of
+/// |translation| + |vertex| (~1e-16 of it); 1e-12 leaves four orders of
+/// margin for poses composed from several (an ODE group's member relative to
+/// its first).
+inline constexpr double kWeldRoundOff = 1e-12;
+
 /// One externally computed contact patch between the shape and one candidate
 /// triangle, in the query frame (the candidates' frame).
 struct TrianglePatch {
