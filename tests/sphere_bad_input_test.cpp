@@ -433,6 +433,13 @@ TEST(Settings, ModesOutsideTheirEnumsAreErrors) {
   expectError(gatherCandidates(&instance, 1, Vec3::Zero(), Vec3::Ones(), static_cast<KeyMode>(255), scratch,
                                candidates),
               ErrorCode::kInvalidSettings, "key mode 255");
+  // A storage none of the enum's: an error, not a borrow of arrays the
+  // caller may free (read after they were, under ASan).
+  TriangleMesh stored;
+  expectError(stored.build(MeshView{kVertices.data(), kVertices.size() / 3, kIndices.data(), kIndices.size() / 3},
+                           static_cast<Storage>(2)),
+              ErrorCode::kInvalidSettings, "storage 2");
+  EXPECT_FALSE(stored.isBuilt());
   QuerySettings bad_filter;
   bad_filter.filter = static_cast<FilterMode>(7);
   expectError(collideSphere(mesh, sphere, bad_filter, scratch, contacts), ErrorCode::kInvalidSettings,

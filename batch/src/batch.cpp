@@ -128,6 +128,16 @@ void runQueries(const MeshInstance* instances, std::size_t instance_count, const
 
 Status collideBatch(const MeshInstance* instances, std::size_t instance_count, const BatchQuery* queries,
                     std::size_t count, const BatchSettings& settings, BatchScratch& scratch, BatchOutput& out) {
+  if (!queries && count > 0) {
+    // No queries to answer: `out` gets none (count says nothing about an
+    // array that is not there, and one status each for SIZE_MAX / 2 of them
+    // threw std::length_error).
+    out.offsets.assign(1, 0);
+    out.status.clear();
+    out.contacts.clear();
+    out.failed = 0;
+    return Status(ErrorCode::kInvalidShape, "collideBatch: queries is null with count " + std::to_string(count));
+  }
   out.offsets.assign(count + 1, 0);
   out.status.resize(count);
   out.failed = 0;

@@ -111,6 +111,11 @@ Status TriangleMesh::build(const std::vector<double>& vertices, const std::vecto
 
 Status TriangleMesh::build(const MeshView& view, Storage storage) {
   reset();
+  // Checked, not taken as kBorrow: a mesh that borrowed arrays its caller
+  // meant to have copied reads them after they are freed.
+  if (storage != Storage::kCopy && storage != Storage::kBorrow)
+    return {ErrorCode::kInvalidSettings,
+            "storage " + std::to_string(static_cast<int>(storage)) + " is neither Storage::kCopy nor kBorrow"};
   if (view.vertex_count == 0) return {ErrorCode::kEmptyMesh, "mesh has no vertices"};
   if (view.vertices == nullptr)
     return {ErrorCode::kEmptyMesh,

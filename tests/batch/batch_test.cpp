@@ -262,7 +262,6 @@ TEST_F(BatchTest, EmptyBatchAndBatchLevelErrors) {
       {"trace", &instance, queries.data(), traced, ErrorCode::kInvalidSettings},
       {"block_size 0", &instance, queries.data(), zero_block, ErrorCode::kInvalidSettings},
       {"max_threads -2", &instance, queries.data(), negative_threads, ErrorCode::kInvalidSettings},
-      {"null queries", &instance, nullptr, settings, ErrorCode::kInvalidShape},
       {"unbuilt mesh", &not_built, queries.data(), settings, ErrorCode::kMeshNotBuilt},
       {"null instances", nullptr, queries.data(), settings, ErrorCode::kMeshNotBuilt},
   };
@@ -275,6 +274,18 @@ TEST_F(BatchTest, EmptyBatchAndBatchLevelErrors) {
     EXPECT_EQ(out.failed, queries.size()) << c.name;
     EXPECT_TRUE(out.contacts.empty()) << c.name;
     EXPECT_EQ(out.offsets.back(), 0u) << c.name;
+  }
+  // Null queries: an error, and no query in `out`, whatever the count (one
+  // status each for SIZE_MAX / 2 of them threw std::length_error).
+  for (const std::size_t count : {queries.size(), std::numeric_limits<std::size_t>::max() / 2,
+                                  std::numeric_limits<std::size_t>::max()}) {
+    const Status s = collideBatch(&instance, 1, nullptr, count, settings, scratch, out);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << count;
+    EXPECT_NE(s.message().find("queries is null"), std::string::npos) << s.message();
+    EXPECT_TRUE(out.status.empty());
+    EXPECT_EQ(out.failed, 0u);
+    EXPECT_TRUE(out.contacts.empty());
+    EXPECT_EQ(out.offsets, std::vector<std::size_t>{0});
   }
   // And the same scratch and output still work afterwards.
   ASSERT_TRUE(collideBatch(&instance, 1, queries.data(), queries.size(), settings, scratch, out).isOk());

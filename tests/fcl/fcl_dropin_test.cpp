@@ -858,6 +858,21 @@ TEST(DropInBadInput, VertexEditedToNaNAfterEndModel) {
                 by_index);
 }
 
+TEST(DropInBadInput, VertexEditedBeyondTheSupportedRangeAfterEndModel) {
+  // The core's range is +-1e50; a vertex moved to 1e300 after endModel()
+  // (the hierarchy's volumes stay where they were, so the walk reaches its
+  // triangles) is reported for contacts by the candidates' stage, and must
+  // be in collision checking too: there the triangle's normal overflowed to
+  // Inf, normalizedOr gave zero, the triangle was skipped as degenerate, and
+  // the answer was "no collision", with no error.
+  BadInput b;
+  for (int v = 0; v < b.model->num_vertices; ++v) b.model->vertices[v] *= 1e300;
+  ::fcl::CollisionObjectd mesh(b.model);
+  ::fcl::CollisionObjectd sphere(std::make_shared<::fcl::Sphered>(0.3), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &sphere, ErrorCode::kNonFiniteVertex, "beyond +-1e50");
+  b.expectError(&sphere, &mesh, ErrorCode::kNonFiniteVertex, "beyond +-1e50", ::fcl::CollisionRequestd(2, false));
+}
+
 TEST(DropInBadInput, PointCloudModel) {
   BadInput b;
   auto cloud = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();

@@ -352,6 +352,30 @@ TEST(PostFilter, Errors) {
   s = fcl::postFilter(&mesh, &sphere, request, forged, cleaned, fcl::Options(), scratch);
   EXPECT_EQ(s.code(), ErrorCode::kIndexOutOfRange) << s.message();
 
+  // A non-finite raw contact (a normal, a depth, a position), in both modes:
+  // kRecompute does not read them, but reported them as cleaned all the same.
+  for (const fcl::PostFilterMode mode : {fcl::PostFilterMode::kRecompute, fcl::PostFilterMode::kClassifyFcl}) {
+    fcl::Options options;
+    options.post_filter = mode;
+    for (int broken = 0; broken < 3; ++broken) {
+      ::fcl::Contactd c = raw.getContact(0);
+      if (broken == 0) c.normal.x() = std::nan("");
+      if (broken == 1) c.penetration_depth = std::nan("");
+      if (broken == 2) c.pos.z() = INFINITY;
+      ::fcl::CollisionResultd bad;
+      bad.addContact(c);
+      s = fcl::postFilter(&mesh, &sphere, request, bad, cleaned, options, scratch);
+      EXPECT_EQ(s.code(), ErrorCode::kInvalidSettings) << s.message();
+      EXPECT_NE(s.message().find("not finite"), std::string::npos) << s.message();
+    }
+  }
+  // A post_filter mode none of the enum's.
+  fcl::Options unknown;
+  unknown.post_filter = static_cast<fcl::PostFilterMode>(9);
+  s = fcl::postFilter(&mesh, &sphere, request, raw, cleaned, unknown, scratch);
+  EXPECT_EQ(s.code(), ErrorCode::kInvalidSettings) << s.message();
+  EXPECT_NE(s.message().find("post_filter 9"), std::string::npos) << s.message();
+
   // An empty raw result is cleaned into an empty one.
   s = fcl::postFilter(&mesh, &sphere, request, ::fcl::CollisionResultd(), cleaned, fcl::Options(), scratch);
   EXPECT_TRUE(s.isOk());

@@ -440,10 +440,15 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
       // The walk keeps every triangle its volume reaches (model.cpp): a
       // vertex edited to NaN or Inf after endModel() is an error here, as
       // the candidates' stage (checkCandidates) makes it for contacts.
+      // Beyond +-1e50 too, as checkCandidates: there the triangle's normal
+      // overflowed to Inf, normalizedOr gave zero, and the triangle was
+      // skipped as degenerate (a sphere on a model at 1e300: "no
+      // collision", no error).
       for (int k = 0; k < 3; ++k)
-        if (!c.vertices[k].allFinite()) {
+        if (!(inRange(c.vertices[k].x()) && inRange(c.vertices[k].y()) && inRange(c.vertices[k].z()))) {
           status = {ErrorCode::kNonFiniteVertex, "triangle " + std::to_string(c.triangle) + " corner " +
-                                                     std::to_string(k) + " has a non-finite vertex"};
+                                                     std::to_string(k) +
+                                                     " has a non-finite vertex or one beyond +-1e50"};
           return true;
         }
       const Vec3 n = normalizedOr((c.vertices[1] - c.vertices[0]).cross(c.vertices[2] - c.vertices[0]), Vec3::Zero());

@@ -68,6 +68,9 @@ Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjec
   if (request.num_max_contacts == 0) return {ErrorCode::kInvalidSettings, "request.num_max_contacts is 0"};
   if (!std::isfinite(options.face_tolerance) || !(options.face_tolerance > 0.0))
     return {ErrorCode::kInvalidSettings, "face_tolerance must be finite and > 0"};
+  if (options.post_filter != PostFilterMode::kRecompute && options.post_filter != PostFilterMode::kClassifyFcl)
+    return {ErrorCode::kInvalidSettings, "post_filter " + std::to_string(static_cast<int>(options.post_filter)) +
+                                             " is neither PostFilterMode::kRecompute nor kClassifyFcl"};
 
   MeshDesc mesh;
   ShapeDesc shape;
@@ -107,10 +110,12 @@ Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjec
     s = rawTriangle(rc, i, mesh, shape, c, contact_mesh_first);
     if (!s) return s;
     if (isDegenerateTriangle(c.vertices[0], c.vertices[1], c.vertices[2])) continue;  // no normal, no feature
+    // Checked in both modes (fcl.h): kRecompute does not read the raw
+    // geometry, but a NaN in FCL's result is a broken input all the same.
+    if (!rc.normal.allFinite() || !std::isfinite(rc.penetration_depth) || !rc.pos.allFinite())
+      return {ErrorCode::kInvalidSettings, "raw contact " + std::to_string(i) + " is not finite"};
     TrianglePatch p;
     if (classify) {
-      if (!rc.normal.allFinite() || !std::isfinite(rc.penetration_depth) || !rc.pos.allFinite())
-        return {ErrorCode::kInvalidSettings, "raw contact " + std::to_string(i) + " is not finite"};
       // FCL's normal and depth, from the mesh toward the shape, depth > 0.
       Vec3 n = normal_negated ? Vec3(-rc.normal) : rc.normal;
       const double depth = depth_negated ? -rc.penetration_depth : rc.penetration_depth;

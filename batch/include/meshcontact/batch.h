@@ -146,11 +146,12 @@ class BatchScratch {
 /// kInvalidShape for a kConvex query without a shape) go to out.status and
 /// never stop the other queries. The returned Status is an error only for
 /// the batch as a whole, checked before any query runs: kInvalidSettings
-/// (trace set, block_size 0, max_threads < 0), kInvalidShape (`queries` null
-/// with count > 0), kMeshNotBuilt (`instances` null with instance_count > 0,
-/// a null mesh, or a mesh whose build() did not succeed). Then `out` holds
-/// count queries with no contacts, each with that same error. An empty batch
-/// succeeds with offsets = {0}.
+/// (trace set, block_size 0, max_threads < 0), kMeshNotBuilt (`instances`
+/// null with instance_count > 0, a null mesh, or a mesh whose build() did
+/// not succeed); then `out` holds count queries with no contacts, each with
+/// that same error. kInvalidShape: `queries` null with count > 0; then `out`
+/// holds no query (offsets = {0}, failed = 0). An empty batch succeeds with
+/// offsets = {0}.
 /// An exception thrown inside a query (by a user's SupportShape, convex.h,
 /// or std::bad_alloc) stops the batch (oneTBB cancels the blocks not yet
 /// started) and is rethrown to the caller once the running ones ended; `out`

@@ -80,7 +80,8 @@ class TriangleMesh {
   /// Validates the arrays and builds the BVH. Errors (the mesh is left empty):
   /// kEmptyMesh (no vertex or no triangle), kIndexOutOfRange (names the
   /// triangle, corner and index), kNonFiniteVertex (names the vertex),
-  /// kTooLarge (more than 2^31 - 1 triangles or vertices).
+  /// kTooLarge (more than 2^31 - 1 triangles or vertices), kInvalidSettings
+  /// (a `storage` none of the enum's: a cast integer).
   /// Degenerate triangles (zero or numerically zero area) are valid input:
   /// they are counted, left out of the BVH, and never produce a contact.
   Status build(const MeshView& view, Storage storage = Storage::kCopy);

@@ -322,7 +322,8 @@ bool defaultCollisionFunction(::fcl::CollisionObjectd* o1, ::fcl::CollisionObjec
 /// enable_contact was false; a raw contact of another pair of geometries
 /// (of an AABB model, whose raw contacts name a temporary copy of it that
 /// FCL made, only the shape's side can be matched); a non-finite raw
-/// contact), kIndexOutOfRange (a triangle the model does
+/// contact, in either mode; a post_filter none of PostFilterMode's),
+/// kIndexOutOfRange (a triangle the model does
 /// not have), and collide()'s errors for the objects.
 Status postFilter(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd* o2,
                   const ::fcl::CollisionRequestd& request, const ::fcl::CollisionResultd& raw,
