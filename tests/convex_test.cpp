@@ -2229,6 +2229,42 @@ TEST(ConvexBadInput, QueriesRejectBadShapesPosesSettings) {
     Vec3 support(const Vec3&) const override { return Vec3::Zero(); }
   } point;
   EXPECT_EQ(collideConvex(mesh, point, pose, settings, scratch, contacts).code(), ErrorCode::kInvalidShape);
+  // A center() outside the core's bounds (far below, or beyond the range):
+  // an error of the query, the candidates' stage and the probe alike. The
+  // one far below, sunk 0.05 into the floor, cleared the core of every
+  // triangle at once and gave no contact, with no error.
+  struct Offcentre final : SupportShape {
+    Vec3 at;
+    Vec3 support(const Vec3& d) const override {
+      return Vec3(d.x() >= 0 ? 0.45 : -0.45, d.y() >= 0 ? 0.45 : -0.45, d.z() >= 0 ? 0.45 : -0.45);
+    }
+    double margin() const override { return 0.05; }
+    Vec3 center() const override { return at; }
+  };
+  Pose sunk;
+  sunk.translation = Vec3(1, 1, 0.45);
+  std::vector<CandidateTriangle> candidates;
+  const MeshInstance instance{&mesh, Pose::identity()};
+  ASSERT_TRUE(gatherCandidates(&instance, 1, Vec3(0, 0, -1), Vec3(2, 2, 1), KeyMode::kVertexIndex, scratch, candidates)
+                  .isOk());
+  for (const Vec3& at : {Vec3(0, 0, -100), Vec3(0, 0, 1e300), Vec3(0.46, 0, 0)}) {
+    Offcentre shape;
+    shape.at = at;
+    contacts.resize(2);
+    Status s = collideConvex(mesh, shape, sunk, settings, scratch, contacts);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << str(at);
+    EXPECT_NE(s.message().find("center()"), std::string::npos) << s.message();
+    EXPECT_TRUE(contacts.empty());
+    s = collideConvexCandidates(shape, sunk, candidates.data(), candidates.size(), settings, scratch, contacts);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << str(at);
+    ConvexContactProbe probe;
+    EXPECT_EQ(probe.prepare(shape, sunk, settings).code(), ErrorCode::kInvalidShape) << str(at);
+  }
+  Offcentre inside;  // the same shape with a center in its core: contacts, up
+  inside.at = Vec3(0.1, -0.2, 0.3);
+  EXPECT_TRUE(collideConvex(mesh, inside, sunk, settings, scratch, contacts).isOk());
+  EXPECT_FALSE(contacts.empty());
+  for (const Contact& c : contacts) EXPECT_NEAR(c.normal.z(), 1.0, 1e-12) << str(c.normal);
   // Pose and settings.
   Pose bad_pose = pose;
   bad_pose.rotation(0, 0) = 2.0;

@@ -1911,6 +1911,15 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
   if (!((hi - lo).minCoeff() >= 0.0))
     return {ErrorCode::kInvalidShape, "the shape's support function is inconsistent (bounds " +
                                           detail::describe(lo) + " - " + detail::describe(hi) + ")"};
+  // center() must lie in the core (convex.h): the deep passes shrink the core
+  // toward it. Outside the core's bounds it certainly does not (beyond
+  // round-off), and a center far below a sunk shape cleared it of every
+  // triangle at once: no contact, no error.
+  const Vec3 slack = Vec3::Constant(1e-9 * ((hi - lo).norm() + center.cwiseAbs().maxCoeff()));
+  if (((center - lo).array() < -slack.array()).any() || ((center - hi).array() > slack.array()).any())
+    return {ErrorCode::kInvalidShape, "the shape's center() " + detail::describe(center) +
+                                          " (query frame) lies outside its core's bounds " + detail::describe(lo) +
+                                          " - " + detail::describe(hi)};
   const Vec3 m = Vec3::Constant(shape.margin());
   lo -= m;
   hi += m;
