@@ -1029,6 +1029,12 @@ TEST(DropInBadInput, BadShapesAndSettings) {
   ::fcl::CollisionObjectd capsule(std::make_shared<::fcl::Capsuled>(std::numeric_limits<double>::quiet_NaN(), 1.0),
                                   at(Vec3(1, 1, 0.1)));
   b.expectError(&mesh, &capsule, ErrorCode::kInvalidShape, "");
+  // A size's value in the message at its scale (std::to_string printed
+  // -1e-9 as "-0.000000" and 1e300 with 300 digits).
+  ::fcl::CollisionObjectd tiny_cone(std::make_shared<::fcl::Coned>(-1e-9, 1.0), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &tiny_cone, ErrorCode::kInvalidShape, "got -1e-09");
+  ::fcl::CollisionObjectd huge_cone(std::make_shared<::fcl::Coned>(1e300, 1.0), at(Vec3(1, 1, 0.1)));
+  b.expectError(&mesh, &huge_cone, ErrorCode::kInvalidShape, "<= 1e50, got 1e+300");
   // Far from the mesh too: the shape is checked whether or not triangles are near.
   ::fcl::CollisionObjectd far(std::make_shared<::fcl::Sphered>(-0.3), at(Vec3(100, 100, 100)));
   b.expectError(&mesh, &far, ErrorCode::kInvalidShape, "radius");

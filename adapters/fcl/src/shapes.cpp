@@ -40,7 +40,8 @@ const double kFaceCos = std::sqrt(1.0 - kFaceSin * kFaceSin);
 
 Status checkPositive(double v, const char* what) {
   if (!std::isfinite(v) || !(v > 0.0) || !inRange(v))
-    return {ErrorCode::kInvalidShape, std::string(what) + " must be finite and > 0, got " + std::to_string(v)};
+    return {ErrorCode::kInvalidShape,
+            std::string(what) + " must be finite, > 0 and <= 1e50, got " + describeValue(v)};
   return Status::ok();
 }
 
