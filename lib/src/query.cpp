@@ -73,12 +73,12 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     if (identity) *identity = detail::VertexIdentity::kKeysOrPositions;
     mode = KeyMode::kVertexIndex;
   }
-  // The weld's scale: the largest |translation| + |vertex| of the meshes
-  // that give candidates, and whether two of those have different poses
-  // (only those are welded: 16 tiles of one pose cost no weld).
-  double weld_scale = 0.0;
+  // Whether two meshes that give candidates have different poses (only
+  // those are welded: 16 tiles of one pose cost no weld). Two unposed ones
+  // are compared by the flag alone (on 16 tiles, the comparison of whole
+  // poses cost 1.5% of a sphere query).
   const Pose* first_pose = nullptr;
-  bool poses_differ = false;
+  bool first_unposed = false, poses_differ = false;
   QueryScratch::Impl& sc = scratch.impl();
   const Vec3 centre = 0.5 * (lo + hi);
   const Vec3 half = 0.5 * (hi - lo);
@@ -143,11 +143,12 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
       mesh.queryBox(local_lo, local_hi, sc.hits, sc.walk_queue);
     if (sc.hits.empty()) continue;
     if (weld) {
-      const double reach = std::max(mesh_lo.cwiseAbs().maxCoeff(), mesh_hi.cwiseAbs().maxCoeff());
-      weld_scale = std::max(weld_scale, pose.translation.cwiseAbs().maxCoeff() + reach);
-      if (!first_pose) first_pose = &pose;
-      poses_differ = poses_differ || !(pose.rotation == first_pose->rotation &&
-                                       pose.translation == first_pose->translation);
+      if (!first_pose) {
+        first_pose = &pose;
+        first_unposed = unposed;
+      } else if (!poses_differ && !(unposed && first_unposed)) {
+        poses_differ = !(pose.rotation == first_pose->rotation && pose.translation == first_pose->translation);
+      }
     }
     if (mode == KeyMode::kVertexPosition && first_position) {
       // Upper bound on distinct positions of this query: 3 per triangle of
@@ -198,6 +199,15 @@ Status gather(const MeshInstance* instances, std::size_t count, const Vec3& lo, 
     }
   }
   if (poses_differ) {
+    // The weld's scale: the largest |translation| + |vertex| of the meshes
+    // queried (all of them: which gave candidates is not kept, and a larger
+    // scale only widens a tolerance of 1e-12 of it).
+    double weld_scale = 0.0;
+    for (std::size_t m = 0; m < count; ++m) {
+      const TriangleMesh& mesh = *instances[m].mesh;
+      const double reach = std::max(mesh.boundsLo().cwiseAbs().maxCoeff(), mesh.boundsHi().cwiseAbs().maxCoeff());
+      weld_scale = std::max(weld_scale, instances[m].pose.translation.cwiseAbs().maxCoeff() + reach);
+    }
     Status s = weldCorners(out.data(), out.size(), kWeldRoundOff * weld_scale, scratch);
     if (!s) {
       out.clear();

@@ -67,8 +67,8 @@ Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t 
 /// The pipelines (collideSphere(instances, ...) and the others) do it
 /// themselves with KeyMode::kVertexPosition (or kAuto over several meshes)
 /// when the meshes that give candidates have different poses, with a
-/// tolerance of kWeldRoundOff times the largest of their |translation| +
-/// |vertex| (max norms): pose round-off, not authoring gaps. Errors:
+/// tolerance of kWeldRoundOff times the largest |translation| + |vertex|
+/// (max norms) of the meshes queried: pose round-off, not authoring gaps. Errors:
 /// kInvalidSettings (`candidates` null with count > 0, a tolerance not finite
 /// or < 0, more than 1.4e9 candidates).
 Status weldCorners(CandidateTriangle* candidates, std::size_t count, double tolerance, QueryScratch& scratch);
