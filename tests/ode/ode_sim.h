@@ -20,6 +20,8 @@
 #include <meshcontact/ode.h>
 #include <meshcontact_scenes/scenes.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -105,6 +107,11 @@ struct WorldParams {
   double erp = 0.2;           // world ERP
   int max_contacts = 32;      // the budget given to dCollide per pair
   bool group_pieces = true;   // makeGroup over the ground pieces (override / filter)
+  /// Each ground piece in a frame of its own: its vertices written relative
+  /// to its first vertex in a frame yawed by 0.3 + 0.2 k rad (piece k), and
+  /// its geom placed there, so that neighbours' shared corners meet only up
+  /// to round-off in the world (instanced track pieces, reference §6).
+  bool own_frames = false;
   bool body_body = true;      // collide bodies with each other
   double rolling_friction = 0.0;  // dContactRolling rho (0: off): a rolling sphere otherwise never stops
   /// When set, called on each pair's contacts (from dCollide) before the
@@ -133,7 +140,7 @@ class World {
     if (mode == Mode::kPlane) {
       ground_.push_back(dCreatePlane(space_, 0, 0, 1, 0));
     } else {
-      for (const scenes::SceneMesh& piece : pieces) addPiece(piece);
+      for (const scenes::SceneMesh& piece : pieces) addPiece(piece, params.own_frames);
       if (params.group_pieces && ground_.size() > 1 && mode != Mode::kNative) {
         const Status s = ode::makeGroup(ground_.data(), static_cast<int>(ground_.size()));
         MESHCONTACT_ODESIM_CHECK(s);
@@ -231,10 +238,20 @@ class World {
   }
 
  private:
-  void addPiece(const scenes::SceneMesh& piece) {
+  void addPiece(const scenes::SceneMesh& piece, bool own_frame = false) {
     dTriMeshDataID d = dGeomTriMeshDataCreate();
     // ODE keeps pointers into these arrays: keep them alive with the world.
     vertices_.push_back(piece.vertices);
+    Pose frame;
+    if (own_frame) {
+      const double yaw = 0.3 + 0.2 * static_cast<double>(ground_.size());
+      frame.rotation = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+      frame.translation = piece.vertex(0);
+      for (std::size_t i = 0; i < piece.vertexCount(); ++i) {
+        const Vec3 local = frame.applyInverse(piece.vertex(static_cast<std::uint32_t>(i)));
+        for (int k = 0; k < 3; ++k) vertices_.back()[3 * i + k] = local[k];
+      }
+    }
     indices_.emplace_back(piece.indices.begin(), piece.indices.end());
     const std::vector<double>& v = vertices_.back();
     const std::vector<dTriIndex>& idx = indices_.back();
@@ -248,6 +265,12 @@ class World {
     }
     data_.push_back(d);
     dGeomID g = dCreateTriMesh(space_, d, nullptr, nullptr, nullptr);
+    if (own_frame) {
+      dGeomSetPosition(g, frame.translation.x(), frame.translation.y(), frame.translation.z());
+      dMatrix3 R;
+      toOdeRotation(frame.rotation, R);
+      dGeomSetRotation(g, R);
+    }
     if (mode_ == Mode::kTriangleFilter) {
       const Status s = ode::attachTriangleFilter(g);
       MESHCONTACT_ODESIM_CHECK(s);
@@ -388,10 +411,11 @@ struct RunLength {
 
 /// A sphere of radius 0.25 rolling without slipping at 5 m/s (mu = 1).
 inline Peaks rollSphere(Mode mode, const std::vector<scenes::SceneMesh>& ground, const RunLength& length,
-                        bool group_pieces = true, std::vector<Sample>* samples = nullptr) {
+                        bool group_pieces = true, std::vector<Sample>* samples = nullptr, bool own_frames = false) {
   Session session;
   WorldParams params;
   params.group_pieces = group_pieces;
+  params.own_frames = own_frames;
   World world(mode, ground, params);
   const double r = 0.25;
   dBodyID b = world.addSphere(r, Vec3(1.0, 2.1, r));
