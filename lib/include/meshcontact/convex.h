@@ -137,9 +137,9 @@ class SupportShape {
 
   /// A point inside the core (local frame), used as the center toward which
   /// the core shrinks under deep penetration; one outside the core's bounds
-  /// is an error (kInvalidShape) of every query. The default is the mean of the
-  /// six support points along +-x, +-y, +-z (a convex combination of core
-  /// points, so inside the core).
+  /// is an error (kInvalidShape) of every query. The default is the mean of
+  /// the six support points along +-x, +-y, +-z (a convex combination of
+  /// core points, so inside the core).
   virtual Vec3 center() const;
 
   static constexpr int kMaxFacePoints = 16;
@@ -308,8 +308,9 @@ class CylinderShape final : public SupportShape {
 /// Vertex identity as for collideSphereCandidates (query.h).
 /// Errors: kInvalidShape (validate() failed, a support point or center is
 /// not finite, the center lies outside the core's bounds, the margin is
-/// negative or not finite, or the shape has no extent), kInvalidPose, kInvalidSettings (contact distance, manifold
-/// angle, a filter or key mode none of its enum's), kNonFiniteVertex (a
+/// negative or not finite, or the shape has no extent), kInvalidPose,
+/// kInvalidSettings (contact distance, manifold angle, a filter or key mode
+/// none of its enum's), kNonFiniteVertex (a
 /// candidate's corner is not finite or beyond +-1e50, the range of a built
 /// mesh's vertices; names the candidate and corner).
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,

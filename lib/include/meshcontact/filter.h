@@ -68,9 +68,9 @@ Status assignPositionKeysFromIndices(CandidateTriangle* candidates, std::size_t 
 /// themselves with KeyMode::kVertexPosition (or kAuto over several meshes)
 /// when the meshes that give candidates have different poses, with a
 /// tolerance of kWeldRoundOff times the largest |translation| + |vertex|
-/// (max norms) of the meshes queried: pose round-off, not authoring gaps. Errors:
-/// kInvalidSettings (`candidates` null with count > 0, a tolerance not finite
-/// or < 0, more than 1.4e9 candidates).
+/// (max norms) of the meshes queried: pose round-off, not authoring gaps.
+/// Errors: kInvalidSettings (`candidates` null with count > 0, a tolerance
+/// not finite or < 0, more than 1.4e9 candidates).
 Status weldCorners(CandidateTriangle* candidates, std::size_t count, double tolerance, QueryScratch& scratch);
 
 /// The pipelines' weld tolerance, relative to the meshes' magnitudes (see
