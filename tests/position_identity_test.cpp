@@ -328,7 +328,8 @@ TEST(PositionIdentity, WeldCornersJoinsOtherMeshesCornersWhateverTheOrder) {
   QueryScratch scratch;
   std::vector<CandidateTriangle> welded = input;
   ASSERT_TRUE(weldCorners(welded.data(), welded.size(), tolerance, scratch).isOk());
-  // The smallest of a, a1, a2 by value: a2 (x one ulp below).
+  // The smallest of a, a1, a2 by their bits (by value, all being positive):
+  // a2, its x one ulp below.
   const Vec3 a_min(a2.x(), a2.y(), a2.z());
   EXPECT_TRUE(bitwiseEqual(welded[0].vertices[0], a_min));
   EXPECT_TRUE(bitwiseEqual(welded[2].vertices[0], a_min));
