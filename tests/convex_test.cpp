@@ -2162,6 +2162,12 @@ TEST(ConvexBadInput, HullValidation) {
   EXPECT_NE(nan.message().find("point 2"), std::string::npos) << nan.message();
   // Relative tolerances: a tiny but valid hull builds.
   EXPECT_TRUE(h.build({Vec3(0, 0, 0), Vec3(1e-6, 0, 0), Vec3(0, 1e-6, 0), Vec3(0, 0, 1e-6)}).isOk());
+  // Down to the convex shapes' supported scale (geometry.h); below it, a
+  // cube is refused for its scale, not called coplanar.
+  EXPECT_TRUE(h.build(scenes::boxCorners(Vec3::Constant(1e-80))).isOk());
+  const Status tiny = h.build(scenes::boxCorners(Vec3::Constant(1e-90)));
+  EXPECT_EQ(tiny.code(), ErrorCode::kInvalidShape);
+  EXPECT_NE(tiny.message().find("below the convex shapes' supported scale"), std::string::npos) << tiny.message();
 }
 
 TEST(ConvexBadInput, MarginValidation) {

@@ -185,9 +185,18 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   centroid /= static_cast<double>(points.size());
   std::vector<Vec3> local(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) local[i] = points[i] - centroid;
-  std::vector<detail::HullPlane> planes;
-  if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, planes))
+  // The plane tests multiply lengths: at the smallest scales they underflow
+  // and find no volume where there is one (a cube of side 1e-85), which is
+  // then said as it is, not as coplanar points.
+  const auto noPlanes = [diameter]() -> Status {
+    if (diameter < 1e-75)
+      return {ErrorCode::kInvalidShape, "convex hull points span only " + detail::describe(diameter) +
+                                            ": below the convex shapes' supported scale (~1e-80, geometry.h), "
+                                            "where the hull's plane tests underflow"};
     return {ErrorCode::kInvalidShape, "convex hull points are (nearly) coplanar: the hull has no volume"};
+  };
+  std::vector<detail::HullPlane> planes;
+  if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, planes)) return noPlanes();
   // The center (the point the core shrinks toward under deep penetration)
   // and the inradius (the automatic margin's scale) are the hull's, not the
   // point set's: points on a face (allowed, and dropped) pulled the mean
@@ -247,8 +256,7 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
       centroid += shift;
       for (Vec3& p : local) p -= shift;
       std::vector<detail::HullPlane> recentred;
-      if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, recentred))
-        return {ErrorCode::kInvalidShape, "convex hull points are (nearly) coplanar: the hull has no volume"};
+      if (!detail::hullPlanes(local.data(), local.size(), 1e-10 * diameter, recentred)) return noPlanes();
       planes = std::move(recentred);
     }
   }
