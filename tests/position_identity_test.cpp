@@ -365,6 +365,25 @@ TEST(PositionIdentity, WeldCornersJoinsOtherMeshesCornersWhateverTheOrder) {
       }
     }
   }
+  // A grid's column: 60 corners of each of two meshes at one exact x (cut
+  // apart along y, then z), each of mesh 1 an ulp or two off its twin of
+  // mesh 0: twins joined, rows 0.5 apart never.
+  std::vector<CandidateTriangle> column;
+  for (std::uint32_t t = 0; t < 20; ++t)
+    for (std::uint32_t m = 0; m < 2; ++m) {
+      Vec3 v[3];
+      for (int k = 0; k < 3; ++k) {
+        const double y = 0.5 * (3 * t + k);
+        v[k] = Vec3(2.0, m == 0 ? y : next(y, 1 + k % 2), 7.0);
+      }
+      column.push_back(triangle(m, t, v[0], v[1], v[2]));
+    }
+  ASSERT_TRUE(weldCorners(column.data(), column.size(), 1e-12 * 30.0, scratch).isOk());
+  for (std::size_t i = 0; i < column.size(); i += 2)
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_TRUE(bitwiseEqual(column[i].vertices[k], column[i + 1].vertices[k])) << i << " " << k;
+      EXPECT_EQ(column[i].vertices[k].y(), 0.5 * (3 * column[i].triangle + k));  // mesh 0's: the smaller
+    }
   // -0 and +0 are one position, written as +0.
   std::vector<CandidateTriangle> zeros{triangle(0, 0, Vec3(-0.0, 1, 1), b, c), triangle(1, 0, Vec3(0.0, 1, 1), b, c)};
   ASSERT_TRUE(weldCorners(zeros.data(), zeros.size(), 0.0, scratch).isOk());
