@@ -592,6 +592,20 @@ struct CountingShape final : ForwardingShape {
   void reset() const { supports = projections = 0; }
 };
 
+// The triangles of `mesh` whose bounds overlap a box (index keys): what a
+// caller's midphase gives, for the first gather and for the deep passes.
+struct MeshBoxSource final : CandidateSource {
+  const TriangleMesh& mesh;
+  QueryScratch scratch;  // the query's own is busy
+  int calls = 0;
+  explicit MeshBoxSource(const TriangleMesh& m) : mesh(m) {}
+  Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) override {
+    ++calls;
+    const MeshInstance instance{&mesh, Pose::identity()};
+    return gatherCandidates(&instance, 1, lo, hi, KeyMode::kVertexIndex, scratch, out);
+  }
+};
+
 TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
   const SceneMesh scenes_[] = {scenes::flatFloor(8, 8, 0.5, 21), scenes::sineTerrain(8, 8, 0.5, 0.4, 3.0, 22),
                                scenes::step(2.0, 1.0, 0.5, 23)};
@@ -611,6 +625,7 @@ TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
       const CountingShape shape(*inner);
       long calls_fast = 0, calls_reference = 0;
       int saved = 0;  // placements where the shortcuts made fewer support and projection calls
+      int gathered = 0;  // placements whose deep passes asked the source
       const int placements = testing::scaled(1500);
       for (int i = 0; i < placements; ++i) {
         Pose pose;
@@ -646,7 +661,20 @@ TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
         ASSERT_TRUE(testing::bitwiseEqual(fast, reference))
             << "placement " << i << ": " << fast.size() << " contacts with the shortcuts, " << reference.size()
             << " without; pose " << str(pose.translation);
+        // The same with the deep passes' candidates gathered (the pipelines'
+        // way): the first pass's shortcuts hold for the wider candidates.
+        MeshBoxSource source(mesh);
+        const Status c = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
+                                                         scratch, fast, true, &source);
+        const Status d = detail::collideConvexCandidates(shape, pose, candidates.data(), candidates.size(), settings,
+                                                         scratch, reference, false, &source);
+        ASSERT_EQ(c.code(), d.code()) << "placement " << i << ": " << c.message() << " / " << d.message();
+        ASSERT_TRUE(testing::bitwiseEqual(fast, reference))
+            << "placement " << i << ", with a source: " << fast.size() << " contacts with the shortcuts, "
+            << reference.size() << " without; pose " << str(pose.translation);
+        gathered += source.calls > 0;
       }
+      EXPECT_GT(gathered, placements / 10);  // the deep passes gathered
       // The shortcuts are taken (not a test of nothing) and save work overall.
       EXPECT_GT(saved, placements / 10);
       EXPECT_LT(calls_fast, calls_reference);
@@ -655,6 +683,191 @@ TEST(ConvexDeepPasses, ShortcutsChangeNothing) {
 }
 
 const Vec3 kUp = Vec3::UnitZ();
+
+// Deep penetration, the triangles a pass takes: every triangle within the
+// pass's reach of the scaled core (CandidateSource, convex.h), some of them
+// beyond the box a midphase is asked for. The pipeline gathers them, so its
+// contacts are those of the whole mesh as candidates, whatever the first
+// gather's box; the candidates of that box alone miss some of them, and then
+// a real contact is left unvoided or a voided one kept.
+
+// The rounded shape's bounding box in the query frame.
+void shapeBox(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& hi) {
+  for (int k = 0; k < 3; ++k) {
+    hi[k] = pose.apply(shape.shapeSupport(pose.rotation.transpose() * Vec3::Unit(k)))[k];
+    lo[k] = pose.apply(shape.shapeSupport(pose.rotation.transpose() * -Vec3::Unit(k)))[k];
+  }
+}
+
+// One placement's four answers: the pipeline's, the whole mesh's as
+// candidates, and the shape box's candidates with and without a source.
+// Whether the box's candidates alone differ from the whole mesh's; `deep`:
+// whether the query asked the source.
+bool expectWithinReachOnly(const TriangleMesh& mesh, const std::vector<CandidateTriangle>& all,
+                           const SupportShape& shape, const Pose& pose, const QuerySettings& settings,
+                           const std::string& where, bool& deep) {
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> boxed;
+  std::vector<Contact> pipeline, whole_mesh, with_source, box_alone;
+  EXPECT_TRUE(collideConvex(mesh, shape, pose, settings, scratch, pipeline).isOk()) << where;
+  EXPECT_TRUE(collideConvexCandidates(shape, pose, all.data(), all.size(), settings, scratch, whole_mesh).isOk())
+      << where;
+  EXPECT_TRUE(testing::bitwiseEqual(pipeline, whole_mesh))
+      << where << ": " << pipeline.size() << " contacts from the pipeline, " << whole_mesh.size()
+      << " with the whole mesh as candidates";
+  Vec3 box_lo, box_hi;
+  shapeBox(shape, pose, box_lo, box_hi);
+  MeshBoxSource source(mesh);
+  const Vec3 reach = Vec3::Constant(settings.contact_distance);
+  EXPECT_TRUE(source.gather(box_lo - reach, box_hi + reach, boxed).isOk());
+  source.calls = 0;
+  EXPECT_TRUE(
+      collideConvexCandidates(shape, pose, boxed.data(), boxed.size(), settings, scratch, with_source, &source).isOk())
+      << where;
+  EXPECT_TRUE(testing::bitwiseEqual(with_source, whole_mesh))
+      << where << ": " << with_source.size() << " contacts with the source, " << whole_mesh.size()
+      << " with the whole mesh";
+  deep = source.calls > 0;
+  EXPECT_TRUE(collideConvexCandidates(shape, pose, boxed.data(), boxed.size(), settings, scratch, box_alone).isOk());
+  return !testing::bitwiseEqual(box_alone, whole_mesh);
+}
+
+std::vector<CandidateTriangle> everyTriangle(const TriangleMesh& mesh) {
+  QueryScratch scratch;
+  std::vector<CandidateTriangle> all;
+  const MeshInstance instance{&mesh, Pose::identity()};
+  EXPECT_TRUE(
+      gatherCandidates(&instance, 1, mesh.boundsLo(), mesh.boundsHi(), KeyMode::kVertexIndex, scratch, all).isOk());
+  EXPECT_EQ(all.size(), mesh.triangleCount());
+  return all;
+}
+
+// coreRadius() bounds every core point's distance from center(): the
+// built-in shapes' exactly (reached by a core point), the default by the
+// corner of the local bounding box.
+TEST(ConvexDeepPasses, CoreRadiusBoundsTheCore) {
+  struct Ellipsoid final : SupportShape {
+    Vec3 core{0.4, 0.25, 0.1};
+    Vec3 support(const Vec3& d) const override {
+      const Vec3 s = core.cwiseProduct(d);
+      return core.cwiseProduct(s) / s.norm();
+    }
+  } ellipsoid;
+  const ConvexHull hull = hull32(33, 0.3);
+  const CylinderShape cylinder(Cylinder{0.25, 0.2});
+  EXPECT_NEAR(cylinder.coreRadius(), std::hypot(0.25 - cylinder.margin(), 0.2 - cylinder.margin()), 1e-15);
+  double farthest_hull_point = 0.0;
+  for (const Vec3& p : hull.corePoints()) farthest_hull_point = std::max(farthest_hull_point, (p - hull.center()).norm());
+  EXPECT_EQ(hull.coreRadius(), farthest_hull_point);
+  // The default: the box (0.4, 0.25, 0.1)'s corner.
+  EXPECT_NEAR(ellipsoid.coreRadius(), Vec3(0.4, 0.25, 0.1).norm(), 1e-15);
+  scenes::Rng rng(34);
+  const SupportShape* shapes[] = {&ellipsoid, &hull, &cylinder};
+  for (const SupportShape* shape : shapes) {
+    double reached = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+      const double d = (shape->support(rng.unitVector()) - shape->center()).norm();
+      EXPECT_LE(d, shape->coreRadius() * (1 + 1e-12));
+      reached = std::max(reached, d);
+    }
+    if (shape != &ellipsoid) {
+      EXPECT_GT(reached, 0.98 * shape->coreRadius());  // exact: a core point reaches it
+    }
+  }
+}
+
+TEST(ConvexDeepPasses, ContactsDependOnlyOnTheTrianglesWithinReach) {
+  const TriangleMesh bowl = testing::buildMesh(scenes::bowl(3.0, 1.0, 0.25, 10));
+  const TriangleMesh terrain = testing::buildMesh(scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13));
+  const std::vector<CandidateTriangle> bowl_all = everyTriangle(bowl), terrain_all = everyTriangle(terrain);
+  ConvexHull box_hull;  // margin 0: every penetration is deep
+  ASSERT_TRUE(box_hull.build(scenes::boxCorners(Vec3(0.35, 0.25, 0.2)), 0.0).isOk());
+  const CylinderShape cylinder(Cylinder{0.3, 0.25});
+  bool deep = false;
+  {
+    // The two placements that showed it. The box hull at a vertex of the
+    // bowl: triangle 762, below its box, voids the edge contact 0.031 deep
+    // of triangle 764. The cylinder on the terrain: triangle 176, below its
+    // box, voids the edge contact 0.017 deep of triangle 97.
+    Pose at_bowl, at_terrain;
+    at_bowl.translation = Vec3(2.1745980598860757, 0.69881638403351654, 0.98636154720509728);
+    at_terrain.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+    EXPECT_TRUE(expectWithinReachOnly(bowl, bowl_all, box_hull, at_bowl, QuerySettings{}, "box hull in the bowl", deep));
+    EXPECT_TRUE(deep);
+    EXPECT_TRUE(
+        expectWithinReachOnly(terrain, terrain_all, cylinder, at_terrain, QuerySettings{}, "cylinder on the terrain", deep));
+    EXPECT_TRUE(deep);
+  }
+  // Random placements of sharp and rounded shapes, sunk in.
+  const ConvexHull sharp = hull32(31, 0.35, 0.0);
+  const SupportShape* shapes[] = {&box_hull, &cylinder, &sharp};
+  scenes::Rng rng(32);
+  int deep_placements = 0, box_alone_differs = 0;
+  for (const TriangleMesh* mesh : {&bowl, &terrain}) {
+    const std::vector<CandidateTriangle>& all = mesh == &bowl ? bowl_all : terrain_all;
+    for (const SupportShape* shape : shapes) {
+      const int placements = testing::scaled(300);
+      for (int i = 0; i < placements; ++i) {
+        // The shape's lowest point at a random point of a random triangle,
+        // then sunk by up to 0.15 (past the margin: deep) or raised by 0.005.
+        const std::size_t last = mesh->triangleCount() - 1;
+        const std::uint32_t* tri = mesh->triangle(static_cast<std::uint32_t>(
+            std::min(static_cast<std::size_t>(rng.uniform(0, static_cast<double>(last) + 1)), last)));
+        double u = rng.uniform(0, 1), w = rng.uniform(0, 1);
+        if (u + w > 1) u = 1 - u, w = 1 - w;
+        const Vec3 a = mesh->vertex(tri[0]), b = mesh->vertex(tri[1]), c = mesh->vertex(tri[2]);
+        Pose pose;
+        pose.rotation = rng.rotation();
+        const Vec3 lowest = pose.rotation * shape->shapeSupport(pose.rotation.transpose() * -kUp);
+        pose.translation = a + u * (b - a) + w * (c - a) - lowest + rng.uniform(-0.15, 0.005) * kUp;
+        QuerySettings settings;
+        settings.contact_distance = i % 2 == 0 ? 0.02 : 0.0;
+        settings.reduce_manifold = i % 4 < 2;
+        box_alone_differs += expectWithinReachOnly(*mesh, all, *shape, pose, settings,
+                                                   "placement " + std::to_string(i) + " at " + str(pose.translation),
+                                                   deep);
+        deep_placements += deep;
+      }
+    }
+  }
+  EXPECT_GT(deep_placements, testing::scaled(300));  // the deep path is exercised
+  std::printf("deep placements %d, the box's candidates alone differ on %d\n", deep_placements, box_alone_differs);
+}
+
+// The configuration that showed it: a cylinder on the fine sine terrain,
+// sunk past its margin. Tilting the whole scene moved the first gather's box
+// (an axis-aligned box in a turned frame) over other triangles, and one of
+// them, beyond the shape's reach but within the deep pass's, voided an edge
+// contact 0.017 deep: 4 contacts untilted, 3 tilted.
+TEST(ConvexDeepPasses, ATiltedSceneKeepsItsContacts) {
+  const TriangleMesh mesh = testing::buildMesh(scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13));
+  const Cylinder cylinder{0.3, 0.25};
+  Pose local;
+  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+  QueryScratch scratch;
+  std::vector<Contact> flat, tilted;
+  const MeshInstance untilted{&mesh, Pose::identity()};
+  ASSERT_TRUE(collideCylinder(&untilted, 1, cylinder, local, QuerySettings{}, scratch, flat).isOk());
+  ASSERT_GE(flat.size(), 2u);
+  for (const double angle : {0.2, 0.5, 0.7853981633974483, 1.0, 1.5707963267948966, 2.5}) {
+    Pose frame;
+    frame.rotation = Eigen::AngleAxisd(angle, Vec3(1, 1, 0).normalized()).toRotationMatrix();
+    const MeshInstance instance{&mesh, frame};
+    ASSERT_TRUE(collideCylinder(&instance, 1, cylinder, frame * local, QuerySettings{}, scratch, tilted).isOk());
+    ASSERT_EQ(tilted.size(), flat.size()) << "tilt " << angle;
+    // Each contact, moved back, is one of the untilted ones (an edge's two
+    // triangles may trade it: their distances tie).
+    for (const Contact& t : tilted) {
+      const Vec3 normal = frame.rotation.transpose() * t.normal;
+      const Vec3 point = frame.applyInverse(t.point);
+      const bool found = std::any_of(flat.begin(), flat.end(), [&](const Contact& f) {
+        return (f.normal - normal).norm() < 1e-9 && (f.point - point).norm() < 1e-9 && std::abs(f.depth - t.depth) < 1e-9;
+      });
+      EXPECT_TRUE(found) << "tilt " << angle << ": triangle " << t.triangle << " normal " << str(normal) << " depth "
+                         << t.depth;
+    }
+  }
+}
 
 TEST(ConvexScenes, CylinderOnCliff) {
   const SceneMesh cliff = scenes::step(2.0, 1.0, 0.5, 11);
@@ -2265,6 +2478,26 @@ TEST(ConvexBadInput, QueriesRejectBadShapesPosesSettings) {
     EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << str(at);
     ConvexContactProbe probe;
     EXPECT_EQ(probe.prepare(shape, sunk, settings).code(), ErrorCode::kInvalidShape) << str(at);
+  }
+  // A coreRadius() that is not finite and >= 0: an error of the query, the
+  // candidates' stage and the probe.
+  struct BadRadius final : SupportShape {
+    double radius;
+    Vec3 support(const Vec3& d) const override { return 0.4 * d.normalized(); }
+    double coreRadius() const override { return radius; }
+  };
+  for (const double radius : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    BadRadius shape;
+    shape.radius = radius;
+    contacts.resize(2);
+    Status s = collideConvex(mesh, shape, sunk, settings, scratch, contacts);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << radius;
+    EXPECT_NE(s.message().find("coreRadius()"), std::string::npos) << s.message();
+    EXPECT_TRUE(contacts.empty());
+    s = collideConvexCandidates(shape, sunk, candidates.data(), candidates.size(), settings, scratch, contacts);
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidShape) << radius;
+    ConvexContactProbe probe;
+    EXPECT_EQ(probe.prepare(shape, sunk, settings).code(), ErrorCode::kInvalidShape) << radius;
   }
   Offcentre inside;  // the same shape with a center in its core: contacts, up
   inside.at = Vec3(0.1, -0.2, 0.3);

@@ -49,7 +49,12 @@
 //    (b) a triangle within the scaled core's reach but whose projection
 //        along its normal does not reach the shape still goes through the
 //        filter, as a patch with no point: it is voided, and voids, in its
-//        turn. Its trace entry reads as a contact with no point.
+//        turn. Its trace entry reads as a contact with no point. Such a
+//        triangle may lie up to (1 - s) * coreRadius() beyond the shape's
+//        box (the first gather's): each pass gathers its own candidates
+//        (CandidateSource, runCandidates), or the contacts would depend on
+//        what the midphase gave beyond that box (a sharp box hull in a bowl
+//        kept or lost an edge contact 0.031 deep by one such triangle).
 //    A deeper pass that some triangle certainly voids (the scaled core
 //    crosses the triangle's plane inside it: the test that stands in for
 //    GJK there) is not run. The first pass notes such passes from the
@@ -87,6 +92,18 @@ Vec3 SupportShape::center() const {
   Vec3 sum = Vec3::Zero();
   for (int k = 0; k < 3; ++k) sum += support(Vec3::Unit(k)) + support(-Vec3::Unit(k));
   return sum / 6.0;
+}
+
+double SupportShape::coreRadius() const {
+  const Vec3 c = center();
+  Vec3 lo, hi;
+  for (int k = 0; k < 3; ++k) {
+    hi[k] = support(Vec3::Unit(k))[k];
+    lo[k] = support(-Vec3::Unit(k))[k];
+  }
+  // The farthest corner, coordinate by coordinate (NaN stays NaN).
+  const Vec3 far = (hi - c).cwiseAbs().cwiseMax((lo - c).cwiseAbs());
+  return far.norm();
 }
 
 bool SupportShape::nearestCorePoint(const Vec3& /*x*/, Vec3& /*out*/) const { return false; }
@@ -404,6 +421,8 @@ Status ConvexHull::build(const std::vector<Vec3>& points, double margin) {
   diameter_ = diameter;
   inradius_ = inradius;
   margin_ = m;
+  core_radius_ = 0.0;
+  for (const Vec3& x : core_) core_radius_ = std::max(core_radius_, (x - centroid).norm());
   return Status::ok();
 }
 
@@ -535,6 +554,8 @@ CylinderShape::CylinderShape(const Cylinder& cylinder, double margin) : cylinder
   core_radius_ = cylinder.radius - margin_;
   core_half_length_ = cylinder.half_length - margin_;
 }
+
+double CylinderShape::coreRadius() const { return std::hypot(core_radius_, core_half_length_); }
 
 Vec3 CylinderShape::support(const Vec3& d) const {
   const double r = core_radius_, h = core_half_length_;
@@ -1903,9 +1924,10 @@ Status checkCommon(const SupportShape& shape, const Pose& pose, const QuerySetti
   return detail::checkManifoldSettings(settings);
 }
 
-// The rounded shape's query-frame bounding box from six support calls, and
-// its center in the query frame.
-Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& hi, Vec3& center) {
+// The rounded shape's query-frame bounding box from six support calls, its
+// center in the query frame, and its core's radius about the center (an
+// upper bound: coreRadius).
+Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& hi, Vec3& center, double& radius) {
   Counters counters;
   const PlacedCore core{&shape, &pose.rotation, pose.translation, Vec3::Zero(), 1.0, &counters};
   for (int k = 0; k < 3; ++k) {
@@ -1928,6 +1950,13 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
     return {ErrorCode::kInvalidShape, "the shape's center() " + detail::describe(center) +
                                           " (query frame) lies outside its core's bounds " + detail::describe(lo) +
                                           " - " + detail::describe(hi)};
+  // The core's radius about its center, in the shape's own frame: the
+  // deep passes' reach (reachAt) and their candidates' box, the same in
+  // whatever frame the query is posed. (The query frame's box gave a turned
+  // cylinder up to 1.7 times its radius, and as many more candidates.)
+  radius = shape.coreRadius();
+  if (!(radius >= 0.0) || !std::isfinite(radius))
+    return {ErrorCode::kInvalidShape, "the shape's coreRadius() is not finite and >= 0: " + detail::describe(radius)};
   const Vec3 m = Vec3::Constant(shape.margin());
   lo -= m;
   hi += m;
@@ -1937,29 +1966,23 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
   return Status::ok();
 }
 
-// The bounding box's farthest corner from the center bounds the core's radius.
-double coreRadius(const Vec3& lo, const Vec3& hi, const Vec3& center) {
-  double radius = 0.0;
-  for (int k = 0; k < 8; ++k)
-    radius = std::max(radius, (Vec3((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z()) -
-                               center)
-                                  .norm());
-  return radius;
-}
-
 Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
-                     const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
+                     double radius, const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
                      detail::VertexIdentity identity, QueryScratch& scratch, std::vector<Contact>& contacts,
-                     bool shortcuts) {
+                     bool shortcuts, CandidateSource* deeper) {
   Counters counters;
   const double size = (hi - lo).norm();
-  const double radius = coreRadius(lo, hi, center);
   const double reach = settings.contact_distance + roundOffReach(size, center);
   ConvexNarrowphase<false> narrowphase{&shape, pose, shape.margin(), reach, size, center, 1.0, radius, &counters};
   narrowphase.predict_intersection = shortcuts;
   narrowphase.projects = givesNearestCorePoints(shape);
   narrowphase.cos_manifold = std::cos(settings.manifold_angle_deg * (M_PI / 180.0));
   QueryScratch::Impl& sc = scratch.impl();
+  // The box the deep passes' candidates were last gathered on (`deeper`);
+  // none yet: the caller's.
+  Vec3 gathered_lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 gathered_hi = -gathered_lo;
+  const Vec3 core_lo = lo + Vec3::Constant(shape.margin()), core_hi = hi - Vec3::Constant(shape.margin());
   // Deep penetration: the same query with the core shrunk toward its center
   // (convex.h); the last scale, the center itself, never intersects.
   for (const double scale : kPassScales) {
@@ -1967,6 +1990,27 @@ Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo
     // end as soon as it reached the triangle that voids it, at the price of
     // every triangle before it.
     if (counters.certainlyVoid(scale)) continue;
+    if (deeper != nullptr && scale < 1.0) {
+      // Every triangle within the pass's reach (reachAt) of the scaled core
+      // overlaps the scaled core's box grown by that reach: (1 - scale) *
+      // (radius - the core's half extent) beyond the shape's own box on
+      // each side, more for each deeper pass (CandidateSource).
+      const Vec3 grow = Vec3::Constant(narrowphase.reachAt(scale));
+      const Vec3 need_lo = scaledAbout(center, scale, core_lo) - grow;
+      const Vec3 need_hi = scaledAbout(center, scale, core_hi) + grow;
+      if ((need_lo.array() < gathered_lo.array()).any() || (need_hi.array() > gathered_hi.array()).any()) {
+        Status s = deeper->gather(need_lo, need_hi, sc.deep_candidates);
+        if (s) s = detail::checkCandidates(sc.deep_candidates.data(), sc.deep_candidates.size());
+        if (!s) {
+          contacts.clear();
+          return s;
+        }
+        candidates = sc.deep_candidates.data();
+        count = sc.deep_candidates.size();
+        gathered_lo = need_lo;
+        gathered_hi = need_hi;
+      }
+    }
     narrowphase.scale = scale;
     counters.core_intersects = false;
     detail::generateContacts(candidates, count, narrowphase, settings, identity, sc.filter, contacts);
@@ -2022,7 +2066,8 @@ Status ConvexContactProbe::prepare(const SupportShape& shape, const Pose& pose, 
   Status s = checkCommon(shape, pose, settings);
   if (!s) return s;
   Vec3 lo, hi, center;
-  s = shapeBounds(shape, pose, lo, hi, center);
+  double radius;
+  s = shapeBounds(shape, pose, lo, hi, center, radius);
   if (!s) return s;
   // What runCandidates computes per query, once.
   shape_ = &shape;
@@ -2032,7 +2077,7 @@ Status ConvexContactProbe::prepare(const SupportShape& shape, const Pose& pose, 
   contact_distance_ = settings.contact_distance;
   size_ = (hi - lo).norm();
   reach_ = contact_distance_ + roundOffReach(size_, center);
-  radius_ = coreRadius(lo, hi, center);
+  radius_ = radius;
   projects_ = givesNearestCorePoints(shape);
   return Status::ok();
 }
@@ -2082,23 +2127,30 @@ Status ConvexContactProbe::check(const CandidateTriangle& candidate, bool& conta
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts) {
-  return detail::collideConvexCandidates(shape, pose, candidates, count, settings, scratch, contacts, true);
+  return detail::collideConvexCandidates(shape, pose, candidates, count, settings, scratch, contacts, true, nullptr);
+}
+
+Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
+                               std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                               std::vector<Contact>& contacts, CandidateSource* deeper) {
+  return detail::collideConvexCandidates(shape, pose, candidates, count, settings, scratch, contacts, true, deeper);
 }
 
 Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                        std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                                       std::vector<Contact>& contacts, bool shortcuts) {
+                                       std::vector<Contact>& contacts, bool shortcuts, CandidateSource* deeper) {
   contacts.clear();
   if (settings.trace) settings.trace->clear();
   Status s = checkCommon(shape, pose, settings);
   if (!s) return s;
   Vec3 lo, hi, center;
-  s = shapeBounds(shape, pose, lo, hi, center);
+  double radius;
+  s = shapeBounds(shape, pose, lo, hi, center, radius);
   if (!s) return s;
   s = checkCandidates(candidates, count);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, candidates, count, settings, detail::candidateIdentity(settings),
-                       scratch, contacts, shortcuts);
+  return runCandidates(shape, pose, lo, hi, center, radius, candidates, count, settings, detail::candidateIdentity(settings),
+                       scratch, contacts, shortcuts, deeper);
 }
 
 Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,
@@ -2108,7 +2160,8 @@ Status collideConvex(const MeshInstance* instances, std::size_t count, const Sup
   Status s = checkCommon(shape, pose, settings);
   if (!s) return s;
   Vec3 lo, hi, center;
-  s = shapeBounds(shape, pose, lo, hi, center);
+  double radius;
+  s = shapeBounds(shape, pose, lo, hi, center, radius);
   if (!s) return s;
   const Vec3 reach = Vec3::Constant(settings.contact_distance + roundOffReach((hi - lo).norm(), center));
   QueryScratch::Impl& sc = scratch.impl();
@@ -2116,8 +2169,22 @@ Status collideConvex(const MeshInstance* instances, std::size_t count, const Sup
   s = detail::gatherForFilter(instances, count, lo - reach, hi + reach, settings.key_mode, scratch, sc.candidates,
                               identity);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, sc.candidates.data(), sc.candidates.size(), settings, identity,
-                       scratch, contacts, true);
+  // The deep passes' triangles: the same midphase on their box. (The
+  // vertex identity depends on the meshes alone, not on the box.)
+  struct SameMidphase final : CandidateSource {
+    const MeshInstance* instances;
+    std::size_t count;
+    KeyMode key_mode;
+    QueryScratch* scratch;
+    SameMidphase(const MeshInstance* i, std::size_t n, KeyMode k, QueryScratch* sc)
+        : instances(i), count(n), key_mode(k), scratch(sc) {}
+    Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) override {
+      detail::VertexIdentity same;
+      return detail::gatherForFilter(instances, count, lo, hi, key_mode, *scratch, out, same);
+    }
+  } deeper(instances, count, settings.key_mode, &scratch);
+  return runCandidates(shape, pose, lo, hi, center, radius, sc.candidates.data(), sc.candidates.size(), settings, identity,
+                       scratch, contacts, true, &deeper);
 }
 
 Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,

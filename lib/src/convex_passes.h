@@ -14,6 +14,6 @@ namespace meshcontact::detail {
 /// narrowphase finds it void: the method as convex.h defines it.
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                               std::vector<Contact>& contacts, bool shortcuts);
+                               std::vector<Contact>& contacts, bool shortcuts, CandidateSource* deeper = nullptr);
 
 }  // namespace meshcontact::detail

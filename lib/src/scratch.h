@@ -14,6 +14,8 @@ struct QueryScratch::Impl {
   std::vector<std::int32_t> walk_queue;  // TriangleMesh::querySphere / queryBox
   std::vector<std::uint32_t> hits;
   std::vector<CandidateTriangle> candidates;
+  // A support shape's deep passes' candidates (CandidateSource, convex.h).
+  std::vector<CandidateTriangle> deep_candidates;
   // Position keys: exact position -> dense id, for this query only.
   detail::StampedMap<detail::PositionKey, std::uint32_t, detail::PositionHash> positions;
   // In front of `positions`: one instance's vertex index -> its position key

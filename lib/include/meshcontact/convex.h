@@ -60,9 +60,13 @@
 //     part as a face contact where it continues a face contact of its plane
 //     (within 3 degrees), so the shape keeps its whole footprint. A shape
 //     whose center passed behind a triangle's plane gets no contact from that
-//     triangle, exactly like a sphere whose centre did. The deep path costs
-//     one more pass over the candidates per halving, less the passes that a
-//     triangle the core clearly crosses proves void (2-4x a resting query).
+//     triangle, exactly like a sphere whose centre did. A pass takes every
+//     triangle within its reach of the shrunk K, which goes (1 - s) *
+//     coreRadius() beyond the shape's own: the pipelines gather those
+//     (CandidateSource), so the contacts do not depend on the midphase or
+//     the frame. The deep path costs one more pass over the candidates per
+//     halving (and a second gather), less the passes that a triangle the
+//     core clearly crosses proves void (2-4x a resting query).
 // Then the voided-features filter (reference §5) and the optional manifold
 // reduction (QuerySettings::reduce_manifold).
 // Reach: a pair apart by up to the contact distance plus round-off (1e-14 of
@@ -141,6 +145,16 @@ class SupportShape {
   /// the six support points along +-x, +-y, +-z (a convex combination of
   /// core points, so inside the core).
   virtual Vec3 center() const;
+
+  /// An upper bound of the distance from center() to any point of the core
+  /// (local units). A deep pass with the core scaled by s reaches
+  /// (1 - s) * coreRadius() beyond the shape's reach, and gathers the
+  /// triangles there (CandidateSource): a tighter bound costs fewer
+  /// candidates, never accuracy; one below the true radius loses contacts.
+  /// The default: the farthest corner from center() of the core's bounding
+  /// box in the local frame (six support calls). A non-finite or negative
+  /// value is an error of every query (kInvalidShape).
+  virtual double coreRadius() const;
 
   static constexpr int kMaxFacePoints = 16;
 
@@ -239,6 +253,8 @@ class ConvexHull final : public SupportShape {
   Vec3 support(const Vec3& direction) const override;
   double margin() const override { return margin_; }
   Vec3 center() const override { return centroid_; }
+  /// Exact: the farthest core point's distance from the centroid.
+  double coreRadius() const override { return core_radius_; }
   /// The extreme core point along `direction`, the core points whose height
   /// is within sin(~3 deg) of the diameter of it that lie on a face facing
   /// `direction` (within 60 degrees), and the other ends of its edges that
@@ -264,6 +280,7 @@ class ConvexHull final : public SupportShape {
   double diameter_ = 0.0;
   double inradius_ = 0.0;
   double margin_ = 0.0;
+  double core_radius_ = 0.0;
 };
 
 /// The cylinder of shapes.h (axis along local z, from -half_length to
@@ -283,6 +300,8 @@ class CylinderShape final : public SupportShape {
   Vec3 support(const Vec3& direction) const override;
   double margin() const override { return margin_; }
   Vec3 center() const override { return Vec3::Zero(); }
+  /// Exact: the core's rim, sqrt(core radius^2 + core half length^2).
+  double coreRadius() const override;
   int supportFace(const Vec3& direction, Vec3* out) const override;
   /// Closed form: the axial coordinate clamped to the core's half length,
   /// the radial one to its radius.
@@ -316,6 +335,41 @@ class CylinderShape final : public SupportShape {
 Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
                                std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                                std::vector<Contact>& contacts);
+
+/// The triangles a deep pass needs beyond the first gather. The pass with
+/// the core scaled by s about its center takes every triangle within
+/// margin + (1 - s) * radius + contact distance of the scaled core (radius:
+/// of the core about its center) into the filter; a triangle there that the
+/// full shape does not reach still voids its features, and is voided
+/// (convex.cpp, note (b)). Such triangles lie up to (1 - s) * (radius - the
+/// core's half extent) beyond the shape's box on each side: outside the box
+/// a midphase is asked for. Without them a deep query's contacts depend on
+/// which triangles beyond that box the midphase happened to give, and on
+/// the frame the box was taken in (a sharp box hull in a bowl lost an edge
+/// contact 0.031 deep when one triangle below its box was added; a cylinder
+/// sunk in a terrain lost one 0.017 deep when the scene was tilted).
+class CandidateSource {
+ public:
+  /// Replaces `out` with (at least) every triangle whose bounds overlap
+  /// [lo, hi], in the candidates' frame, with keys of the same kind as the
+  /// first gather's. More triangles change nothing: those beyond a pass's
+  /// reach are rejected.
+  virtual Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) = 0;
+
+ protected:
+  ~CandidateSource() = default;
+};
+
+/// collideConvexCandidates with the deep passes' triangles from `deeper`
+/// (null: the candidates alone, as above). The query calls deeper->gather
+/// only when the core meets a triangle, once for each deeper pass that runs
+/// (on the scaled core's box grown by the pass's reach); an error it returns
+/// is the query's. The whole pipelines (collideConvex, the FCL adapter)
+/// gather this way: their contacts depend only on the triangles within each
+/// pass's reach, not on the midphase or the frame.
+Status collideConvexCandidates(const SupportShape& shape, const Pose& pose, const CandidateTriangle* candidates,
+                               std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
+                               std::vector<Contact>& contacts, CandidateSource* deeper);
 
 /// Collision checking with a support shape, one candidate triangle at a
 /// time: prepare() does the per-query work of collideConvexCandidates once
