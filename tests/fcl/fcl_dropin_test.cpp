@@ -6,6 +6,8 @@
 
 #include "../../adapters/fcl/src/internal.h"  // ConeShape
 
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -40,6 +42,71 @@ TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
   p.local.translation = rng.uniformVector(Vec3(0.5, 0.5, z_lo), Vec3(4.5, 4.5, z_hi));
   p.world = p.mesh * p.local;
   return p;
+}
+
+// --- Deep passes ---------------------------------------------------------------
+
+// A support shape sunk past its margin: its deep passes take every triangle
+// within their reach of the shrunk core, some beyond the box the walk is
+// asked for (convex.h, CandidateSource). The drop-in (in place and through
+// a ModelCache) and the broadphase collector gather them as the core's
+// pipeline does, and give its contacts. On the walk's box alone, this
+// cylinder kept an edge contact 0.017 deep that a triangle below the box
+// voids.
+TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
+  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  auto model = fclModel<::fcl::OBBRSSd>(scene);
+  const TriangleMesh core_mesh = testing::buildMesh(scene);
+  const Cylinder cylinder{0.3, 0.25};
+  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
+  Pose local;
+  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+  QueryScratch core_scratch;
+  std::vector<Contact> core, box_alone;
+  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
+  // The control: the candidates of the shape's box (upright: its radius and
+  // half length about its centre) alone give other contacts.
+  std::vector<CandidateTriangle> boxed;
+  const MeshInstance instance{&core_mesh, Pose::identity()};
+  const Vec3 half(cylinder.radius, cylinder.radius, cylinder.half_length);
+  ASSERT_TRUE(gatherCandidates(&instance, 1, local.translation - half, local.translation + half, KeyMode::kVertexIndex,
+                               core_scratch, boxed)
+                  .isOk());
+  ASSERT_TRUE(collideCylinderCandidates(cylinder, local, boxed.data(), boxed.size(), QuerySettings(), core_scratch,
+                                        box_alone)
+                  .isOk());
+  ASSERT_NE(box_alone.size(), core.size());
+
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(model.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  fcl::Scratch scratch;
+  scenes::Rng rng(57);
+  for (int i = 0; i < 4; ++i) {
+    const Pose mesh_pose = i == 0 ? Pose::identity() : randomPose(rng, 2.0);
+    std::vector<::fcl::Contactd> expected;
+    for (const Contact& c : core) expected.push_back(expectedContact(c, mesh_pose, true, model.get(), shape.get()));
+    ::fcl::CollisionObjectd m(model, toTransform(mesh_pose)), s(shape, toTransform(mesh_pose * local));
+    const fcl::Options in_place;
+    for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
+      const char* how = options == &cached ? ", cached" : "";
+      ::fcl::CollisionResultd result;
+      ASSERT_TRUE(fcl::collide(&m, &s, contactsRequest(), result, *options, scratch).isOk());
+      EXPECT_EQ(compareContacts(contactsOf(result), expected, 1e-12), "") << "mesh pose " << i << how;
+      ::fcl::DynamicAABBTreeCollisionManagerd manager;
+      manager.registerObject(&m);
+      manager.registerObject(&s);
+      manager.setup();
+      fcl::BroadphaseCollector collector(contactsRequest(), *options);
+      manager.collide(&collector, fcl::BroadphaseCollector::callback);
+      ASSERT_TRUE(collector.finish().isOk());
+      std::vector<::fcl::Contactd> grouped;
+      for (const fcl::ObjectContact& c : collector.contacts()) grouped.push_back(c.contact);
+      EXPECT_EQ(compareContacts(grouped, expected, 1e-12, false), "")
+          << "broadphase, mesh pose " << i << how;
+    }
+  }
 }
 
 // --- BV types ------------------------------------------------------------------

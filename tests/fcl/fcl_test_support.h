@@ -100,6 +100,10 @@ class TestCone final : public SupportShape {
     out[0] = support(d);
     return 1;
   }
+  double coreRadius() const override {
+    const Vec3 c = center();
+    return std::max((Vec3(0.0, 0.0, h_) - c).norm(), std::hypot(std::hypot(c.x(), c.y()) + r_, c.z() + h_));
+  }
 
  private:
   double r_, h_;
@@ -112,6 +116,7 @@ class TestEllipsoid final : public SupportShape {
     const Vec3 s = r_.cwiseProduct(d);
     return r_.cwiseProduct(s) / s.norm();
   }
+  double coreRadius() const override { return r_.maxCoeff(); }
 
  private:
   Vec3 r_;
@@ -151,6 +156,11 @@ class TestConvex final : public SupportShape {
     Vec3 sum = Vec3::Zero();
     for (const Vec3& p : v_) sum += p;
     return sum / static_cast<double>(v_.size());
+  }
+  double coreRadius() const override {
+    double radius = 0.0;
+    for (const Vec3& p : v_) radius = std::max(radius, (p - center()).norm());
+    return radius;
   }
 
  private:

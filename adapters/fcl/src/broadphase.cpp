@@ -57,9 +57,62 @@ struct BroadphaseCollector::Impl {
 
   std::vector<ObjectContact> contacts;
 
+  // The group's meshes, for its deep passes' second gather.
+  struct Member {
+    detail::MeshDesc mesh;
+    Pose to_frame;                   // model frame -> the group's frame
+    const TriangleMesh* compact;     // the ModelCache's hierarchy, or null
+  };
+  std::vector<Member> members;
+
   Status runGroup(const Job& job);
   Status runForwarded(const Pair& pair);
+  // Appends member j's triangles in `volume` (its model frame) to `out`,
+  // in the group's frame, with mesh index j and its vertex indices as keys.
+  Status gatherMember(std::uint32_t j, const detail::QueryVolume& volume, std::vector<CandidateTriangle>& out);
+  // The members' candidates as one surface: welded, keyed by object.
+  Status joinMembers(bool poses_differ, double weld_scale, std::vector<CandidateTriangle>& candidates);
 };
+
+Status BroadphaseCollector::Impl::gatherMember(std::uint32_t j, const detail::QueryVolume& volume,
+                                               std::vector<CandidateTriangle>& out) {
+  const Member& member = members[j];
+  Scratch::Impl& sc = scratch.impl();
+  if (member.compact) {
+    // The core's midphase on the cached hierarchy, in the model frame,
+    // then mapped like the in-place walk; its keys are the vertex indices,
+    // as the walk's.
+    const MeshInstance instance{member.compact, Pose::identity()};
+    Status s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.gathered);
+    if (!s) return s;
+    const bool identity = member.to_frame.isIdentity();
+    for (CandidateTriangle c : sc.gathered) {
+      if (!identity)
+        for (Vec3& v : c.vertices) v = member.to_frame.apply(v);
+      c.mesh = j;
+      out.push_back(c);
+    }
+    return Status::ok();
+  }
+  return detail::gatherModel(member.mesh, volume, member.to_frame, j, sc.stack, out);
+}
+
+Status BroadphaseCollector::Impl::joinMembers(bool poses_differ, double weld_scale,
+                                              std::vector<CandidateTriangle>& candidates) {
+  if (poses_differ) {
+    Status s = weldCorners(candidates.data(), candidates.size(), kWeldRoundOff * weld_scale, scratch.impl().query);
+    if (!s) return s;
+  }
+  // The objects form one surface where their vertices meet at bitwise-equal
+  // positions (reference §6; after the weld above): keys that tell the
+  // objects apart (object << 32 | vertex index; equal keys are then equal
+  // positions), and the filter matches positions for the edge and vertex
+  // contacts those keys keep (KeyMode::kVertexPosition on index keys,
+  // query.h).
+  for (CandidateTriangle& c : candidates)
+    for (std::uint64_t& key : c.keys) key = static_cast<std::uint64_t>(c.mesh) << 32 | (key & 0xffffffffu);
+  return Status::ok();
+}
 
 BroadphaseCollector::BroadphaseCollector(const ::fcl::CollisionRequestd& request, const Options& options)
     : impl_(std::make_unique<Impl>()) {
@@ -155,58 +208,56 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
   // scale of their |translation| + |vertex| (the core's pipelines' rule).
   bool poses_differ = false;
   double weld_scale = 0.0;
+  members.clear();
   for (std::size_t j = 0; j < group_meshes.size(); ++j) {
     const ::fcl::CollisionObjectd& mo = *group_meshes[j];
-    detail::MeshDesc mesh;
-    detail::describeMesh(group_geometries[j], mesh);
+    Member member;
+    detail::describeMesh(group_geometries[j], member.mesh);
     Pose mesh_pose, shape_in_model;
-    s = detail::checkPair(mesh, mo, *shape_object, "a mesh of the group", "shape", mesh_pose, shape_in_model);
+    s = detail::checkPair(member.mesh, mo, *shape_object, "a mesh of the group", "shape", mesh_pose, shape_in_model);
     if (!s) return s;
     const bool same_frame = mo.getTransform().matrix() == frame_tf.matrix();
-    const Pose to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
+    member.to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
     poses_differ = poses_differ || !same_frame;
     // The model's local bounds (CollisionObject's constructor computes them).
     const ::fcl::CollisionGeometryd& g = *group_geometries[j];
-    weld_scale = std::max(weld_scale, to_frame.translation.cwiseAbs().maxCoeff() +
+    weld_scale = std::max(weld_scale, member.to_frame.translation.cwiseAbs().maxCoeff() +
                                           g.aabb_center.cwiseAbs().maxCoeff() + g.aabb_radius);
-    const detail::QueryVolume volume =
-        detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance);
-    const TriangleMesh* compact = options.cache ? options.cache->impl().find(mesh) : nullptr;
-    if (compact) {
-      // The core's midphase on the cached hierarchy, in the model frame,
-      // then mapped like the in-place walk; its keys are the vertex indices,
-      // as the walk's (made per object below).
-      const MeshInstance instance{compact, Pose::identity()};
-      s = gatherCandidates(&instance, 1, volume.lo, volume.hi, KeyMode::kVertexIndex, sc.query, sc.gathered);
-      if (!s) return s;
-      const bool identity = to_frame.isIdentity();
-      for (CandidateTriangle c : sc.gathered) {
-        if (!identity)
-          for (Vec3& v : c.vertices) v = to_frame.apply(v);
-        c.mesh = static_cast<std::uint32_t>(j);
-        sc.candidates.push_back(c);
-      }
-    } else {
-      s = detail::gatherModel(mesh, volume, to_frame, static_cast<std::uint32_t>(j), sc.stack, sc.candidates);
-      if (!s) return s;
-    }
-  }
-  if (poses_differ) {
-    s = weldCorners(sc.candidates.data(), sc.candidates.size(), kWeldRoundOff * weld_scale, sc.query);
+    member.compact = options.cache ? options.cache->impl().find(member.mesh) : nullptr;
+    members.push_back(member);
+    s = gatherMember(static_cast<std::uint32_t>(j),
+                     detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance), sc.candidates);
     if (!s) return s;
   }
-  // The objects form one surface where their vertices meet at bitwise-equal
-  // positions (reference §6; after the weld above): keys that tell the
-  // objects apart (object << 32 | vertex index; equal keys are then equal
-  // positions), and the filter matches positions for the edge and vertex
-  // contacts those keys keep (KeyMode::kVertexPosition on index keys,
-  // query.h).
-  for (CandidateTriangle& c : sc.candidates)
-    for (std::uint64_t& key : c.keys) key = static_cast<std::uint64_t>(c.mesh) << 32 | (key & 0xffffffffu);
+  s = joinMembers(poses_differ, weld_scale, sc.candidates);
+  if (!s) return s;
   QuerySettings settings = options.settings;
   settings.key_mode = KeyMode::kVertexPosition;
+  // A support shape's deep passes gather their own, wider candidates
+  // (convex.h, CandidateSource): every member on their box (group frame),
+  // joined as above. (Only the members: a mesh the manager did not pair
+  // with the shape is not asked.)
+  struct Members final : CandidateSource {
+    Impl& impl;
+    bool poses_differ;
+    double weld_scale;
+    Members(Impl& i, bool p, double w) : impl(i), poses_differ(p), weld_scale(w) {}
+    Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) override {
+      out.clear();
+      const Vec3 center = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+      for (std::size_t j = 0; j < impl.members.size(); ++j) {
+        // The box's bounds in the member's model frame.
+        const Pose& to_frame = impl.members[j].to_frame;
+        const Vec3 c = to_frame.applyInverse(center);
+        const Vec3 h = to_frame.rotation.transpose().cwiseAbs() * half;
+        Status s = impl.gatherMember(static_cast<std::uint32_t>(j), detail::boxQueryVolume(c - h, c + h), out);
+        if (!s) return s;
+      }
+      return impl.joinMembers(poses_differ, weld_scale, out);
+    }
+  } deeper(*this, poses_differ, weld_scale);
   s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), settings, sc.query,
-                                sc.contacts);
+                                sc.contacts, CandidateCoverage::kComplete, &deeper);
   if (!s) return s;
   if (sc.contacts.empty() && !sc.candidates.empty()) {
     Contact through;

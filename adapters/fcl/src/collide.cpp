@@ -589,8 +589,25 @@ Status collide(const ::fcl::CollisionObjectd* o1, const ::fcl::CollisionObjectd*
   } else {
     QuerySettings settings = options.settings;
     settings.key_mode = by_position ? KeyMode::kVertexPosition : KeyMode::kVertexIndex;
+    // A support shape's deep passes gather their own, wider candidates
+    // (convex.h, CandidateSource): the same hierarchy on their box, with
+    // the same index keys.
+    struct SameHierarchy final : CandidateSource {
+      const detail::MeshDesc& mesh;
+      const TriangleMesh* compact;
+      Scratch::Impl& sc;
+      SameHierarchy(const detail::MeshDesc& m, const TriangleMesh* c, Scratch::Impl& s) : mesh(m), compact(c), sc(s) {}
+      Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) override {
+        out.clear();
+        if (compact) {
+          const MeshInstance instance{compact, Pose::identity()};
+          return gatherCandidates(&instance, 1, lo, hi, KeyMode::kVertexIndex, sc.query, out);
+        }
+        return detail::gatherModel(mesh, detail::boxQueryVolume(lo, hi), Pose::identity(), 0, sc.stack, out);
+      }
+    } deeper(mesh, compact, sc);
     s = detail::collideCandidates(shape, shape_in_model, sc.candidates.data(), sc.candidates.size(), settings,
-                                  sc.query, sc.contacts);
+                                  sc.query, sc.contacts, CandidateCoverage::kComplete, &deeper);
     if (!s) return s;
   }
   rep.candidates = sc.candidates.size();

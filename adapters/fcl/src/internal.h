@@ -64,6 +64,7 @@ class ConeShape final : public SupportShape {
  public:
   ConeShape(double radius, double half_length) : radius_(radius), half_length_(half_length) {}
   Vec3 support(const Vec3& direction) const override;
+  double coreRadius() const override;
   int supportFace(const Vec3& direction, Vec3* out) const override;
   bool nearestCorePoint(const Vec3& x, Vec3& out) const override;
   Status validate() const override;
@@ -78,6 +79,7 @@ class EllipsoidShape final : public SupportShape {
  public:
   explicit EllipsoidShape(const Vec3& radii) : radii_(radii) {}
   Vec3 support(const Vec3& direction) const override;
+  double coreRadius() const override;
   Status validate() const override;
 
  private:
@@ -98,6 +100,7 @@ class FclConvexShape final : public SupportShape {
   Vec3 support(const Vec3& direction) const override;
   int supportFace(const Vec3& direction, Vec3* out) const override;
   Vec3 center() const override;
+  double coreRadius() const override;
   Status validate() const override;
 
  private:
@@ -145,7 +148,7 @@ const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage
 Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                          std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
                          std::vector<Contact>& contacts,
-                         CandidateCoverage coverage = CandidateCoverage::kComplete);
+                         CandidateCoverage coverage = CandidateCoverage::kComplete, CandidateSource* deeper = nullptr);
 
 /// FCL's (sharp) shape's farthest point along unit `direction` (query
 /// frame): the true surface, never the core's rounded one (a CylinderShape's
@@ -220,6 +223,9 @@ struct QueryVolume {
   bool ball_only;
 };
 QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, double contact_distance);
+/// The volume of the triangles whose bounds overlap [lo, hi] (model frame):
+/// a support shape's deep passes' (CandidateSource, convex.h).
+QueryVolume boxQueryVolume(const Vec3& lo, const Vec3& hi);
 
 /// Appends to `out` every triangle whose leaf BV overlaps the ball of a
 /// sphere's `volume`, or, for other shapes, whose bounds overlap the

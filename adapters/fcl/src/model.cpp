@@ -373,6 +373,18 @@ QueryVolume makeQueryVolume(const ShapeDesc& shape, const Pose& shape_in_model, 
   return q;
 }
 
+QueryVolume boxQueryVolume(const Vec3& lo, const Vec3& hi) {
+  QueryVolume q;
+  q.axes = Mat3::Identity();
+  q.center = 0.5 * (lo + hi);
+  q.half = 0.5 * (hi - lo);
+  q.lo = lo;
+  q.hi = hi;
+  q.radius = q.half.norm();  // the ball around the box: the bounds decide
+  q.ball_only = false;
+  return q;
+}
+
 Status gatherModel(const MeshDesc& mesh, const QueryVolume& volume, const Pose& to_query, std::uint32_t mesh_index,
                    std::vector<int>& stack, std::vector<CandidateTriangle>& out, LeafVisitor* visitor) {
   return withModel(mesh,

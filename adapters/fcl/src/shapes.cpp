@@ -101,6 +101,14 @@ bool ConeShape::nearestCorePoint(const Vec3& x, Vec3& out) const {
   return true;
 }
 
+double ConeShape::coreRadius() const {
+  // Exact: the farther of the apex and the base's rim point opposite the
+  // center (the default center, on the axis by symmetry).
+  const Vec3 c = center();
+  const double rim = std::hypot(std::hypot(c.x(), c.y()) + radius_, c.z() + half_length_);
+  return std::max((Vec3(0.0, 0.0, half_length_) - c).norm(), rim);
+}
+
 Status ConeShape::validate() const {
   Status s = checkPositive(radius_, "cone radius");
   if (!s) return s;
@@ -116,6 +124,8 @@ Vec3 EllipsoidShape::support(const Vec3& d) const {
   if (!(n > 0.0)) return Vec3::Zero();
   return radii_.cwiseProduct(s) / n;
 }
+
+double EllipsoidShape::coreRadius() const { return radii_.maxCoeff(); }  // exact: the largest semi-axis
 
 Status EllipsoidShape::validate() const {
   for (int k = 0; k < 3; ++k) {
@@ -177,6 +187,15 @@ Vec3 FclConvexShape::center() const {
   Vec3 sum = Vec3::Zero();
   for (const auto& p : *vertices_) sum += p;
   return sum / static_cast<double>(vertices_->size());
+}
+
+double FclConvexShape::coreRadius() const {
+  // Exact: the farthest vertex from the center (the box's corner, the
+  // default, is up to sqrt(3) times farther).
+  const Vec3 c = center();
+  double radius = 0.0;
+  for (const auto& p : *vertices_) radius = std::max(radius, (Vec3(p) - c).norm());
+  return radius;
 }
 
 Status FclConvexShape::validate() const {
@@ -299,7 +318,7 @@ const SupportShape* supportShape(const ShapeDesc& shape, SupportStorage& storage
 
 Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const CandidateTriangle* candidates,
                          std::size_t count, const QuerySettings& settings, QueryScratch& scratch,
-                         std::vector<Contact>& contacts, CandidateCoverage coverage) {
+                         std::vector<Contact>& contacts, CandidateCoverage coverage, CandidateSource* deeper) {
   switch (shape.kind) {
     case ShapeKind::kSphere:
       // FCL's sphere is centred on its frame's origin; the core's sphere
@@ -320,7 +339,7 @@ Status collideCandidates(const ShapeDesc& shape, const Pose& pose, const Candida
       // (collideCylinderCandidates is collideConvexCandidates on this CylinderShape.)
       SupportStorage storage;
       return collideConvexCandidates(*supportShape(shape, storage), pose, candidates, count, settings, scratch,
-                                     contacts);
+                                     contacts, deeper);
     }
   }
   return {ErrorCode::kInvalidShape, "unknown shape kind"};

@@ -32,10 +32,18 @@
 // Convex's vertex array is read in place, never copied or re-hulled). Where
 // a rounded rim misses a contact the sharp FCL shape makes, the fallback of
 // Report::through_contacts keeps the in-collision answer FCL's.
+// Their core radius (SupportShape::coreRadius, which sizes the deep passes'
+// reach) is exact: a Convex's farthest vertex from the vertices' mean, an
+// Ellipsoid's largest radius, a Cone's farther of its apex and its base's
+// rim from its (default) center.
 // Candidates: a sphere gets the triangles whose bounding volume reaches it;
 // any other shape the triangles whose bounds overlap its own axis-aligned
 // bounds in the model frame (the core's midphase rule, so that the contacts
-// are exactly the core's collide*() on the same mesh).
+// are exactly the core's collide*() on the same mesh), and a support
+// shape's deep passes the triangles on their own, wider box (convex.h,
+// CandidateSource): in place, through a ModelCache and across a
+// BroadphaseCollector group's meshes. postFilter works on FCL's triangles
+// only.
 //
 // Conventions of every contact this adapter writes (an fcl::Contactd):
 // - o1 / o2: the geometries of the o1 / o2 arguments, in the caller's order
