@@ -757,7 +757,8 @@ TEST(ConvexDeepPasses, CoreRadiusBoundsTheCore) {
   const CylinderShape cylinder(Cylinder{0.25, 0.2});
   EXPECT_NEAR(cylinder.coreRadius(), std::hypot(0.25 - cylinder.margin(), 0.2 - cylinder.margin()), 1e-15);
   double farthest_hull_point = 0.0;
-  for (const Vec3& p : hull.corePoints()) farthest_hull_point = std::max(farthest_hull_point, (p - hull.center()).norm());
+  for (const Vec3& p : hull.corePoints())
+    farthest_hull_point = std::max(farthest_hull_point, (p - hull.center()).norm());
   EXPECT_EQ(hull.coreRadius(), farthest_hull_point);
   // The default: the box (0.4, 0.25, 0.1)'s corner.
   EXPECT_NEAR(ellipsoid.coreRadius(), Vec3(0.4, 0.25, 0.1).norm(), 1e-15);
@@ -792,10 +793,11 @@ TEST(ConvexDeepPasses, ContactsDependOnlyOnTheTrianglesWithinReach) {
     Pose at_bowl, at_terrain;
     at_bowl.translation = Vec3(2.1745980598860757, 0.69881638403351654, 0.98636154720509728);
     at_terrain.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
-    EXPECT_TRUE(expectWithinReachOnly(bowl, bowl_all, box_hull, at_bowl, QuerySettings{}, "box hull in the bowl", deep));
-    EXPECT_TRUE(deep);
     EXPECT_TRUE(
-        expectWithinReachOnly(terrain, terrain_all, cylinder, at_terrain, QuerySettings{}, "cylinder on the terrain", deep));
+        expectWithinReachOnly(bowl, bowl_all, box_hull, at_bowl, QuerySettings{}, "box hull in the bowl", deep));
+    EXPECT_TRUE(deep);
+    EXPECT_TRUE(expectWithinReachOnly(terrain, terrain_all, cylinder, at_terrain, QuerySettings{},
+                                      "cylinder on the terrain", deep));
     EXPECT_TRUE(deep);
   }
   // Random placements of sharp and rounded shapes, sunk in.
@@ -861,7 +863,8 @@ TEST(ConvexDeepPasses, ATiltedSceneKeepsItsContacts) {
       const Vec3 normal = frame.rotation.transpose() * t.normal;
       const Vec3 point = frame.applyInverse(t.point);
       const bool found = std::any_of(flat.begin(), flat.end(), [&](const Contact& f) {
-        return (f.normal - normal).norm() < 1e-9 && (f.point - point).norm() < 1e-9 && std::abs(f.depth - t.depth) < 1e-9;
+        return (f.normal - normal).norm() < 1e-9 && (f.point - point).norm() < 1e-9 &&
+               std::abs(f.depth - t.depth) < 1e-9;
       });
       EXPECT_TRUE(found) << "tilt " << angle << ": triangle " << t.triangle << " normal " << str(normal) << " depth "
                          << t.depth;

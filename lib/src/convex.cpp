@@ -1967,9 +1967,9 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
 }
 
 Status runCandidates(const SupportShape& shape, const Pose& pose, const Vec3& lo, const Vec3& hi, const Vec3& center,
-                     double radius, const CandidateTriangle* candidates, std::size_t count, const QuerySettings& settings,
-                     detail::VertexIdentity identity, QueryScratch& scratch, std::vector<Contact>& contacts,
-                     bool shortcuts, CandidateSource* deeper) {
+                     double radius, const CandidateTriangle* candidates, std::size_t count,
+                     const QuerySettings& settings, detail::VertexIdentity identity, QueryScratch& scratch,
+                     std::vector<Contact>& contacts, bool shortcuts, CandidateSource* deeper) {
   Counters counters;
   const double size = (hi - lo).norm();
   const double reach = settings.contact_distance + roundOffReach(size, center);
@@ -2149,8 +2149,8 @@ Status detail::collideConvexCandidates(const SupportShape& shape, const Pose& po
   if (!s) return s;
   s = checkCandidates(candidates, count);
   if (!s) return s;
-  return runCandidates(shape, pose, lo, hi, center, radius, candidates, count, settings, detail::candidateIdentity(settings),
-                       scratch, contacts, shortcuts, deeper);
+  return runCandidates(shape, pose, lo, hi, center, radius, candidates, count, settings,
+                       detail::candidateIdentity(settings), scratch, contacts, shortcuts, deeper);
 }
 
 Status collideConvex(const MeshInstance* instances, std::size_t count, const SupportShape& shape, const Pose& pose,
@@ -2183,8 +2183,8 @@ Status collideConvex(const MeshInstance* instances, std::size_t count, const Sup
       return detail::gatherForFilter(instances, count, lo, hi, key_mode, *scratch, out, same);
     }
   } deeper(instances, count, settings.key_mode, &scratch);
-  return runCandidates(shape, pose, lo, hi, center, radius, sc.candidates.data(), sc.candidates.size(), settings, identity,
-                       scratch, contacts, true, &deeper);
+  return runCandidates(shape, pose, lo, hi, center, radius, sc.candidates.data(), sc.candidates.size(), settings,
+                       identity, scratch, contacts, true, &deeper);
 }
 
 Status collideConvex(const TriangleMesh& mesh, const SupportShape& shape, const Pose& pose,
