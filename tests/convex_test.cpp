@@ -564,6 +564,7 @@ struct ForwardingShape : SupportShape {
   Vec3 support(const Vec3& d) const override { return inner.support(d); }
   double margin() const override { return inner.margin(); }
   Vec3 center() const override { return inner.center(); }
+  double coreRadius() const override { return inner.coreRadius(); }
   int supportFace(const Vec3& d, Vec3* out) const override { return inner.supportFace(d, out); }
   Status validate() const override { return inner.validate(); }
   bool nearestCorePoint(const Vec3& x, Vec3& out) const override { return inner.nearestCorePoint(x, out); }

@@ -1957,6 +1957,10 @@ Status shapeBounds(const SupportShape& shape, const Pose& pose, Vec3& lo, Vec3& 
   radius = shape.coreRadius();
   if (!(radius >= 0.0) || !std::isfinite(radius))
     return {ErrorCode::kInvalidShape, "the shape's coreRadius() is not finite and >= 0: " + detail::describe(radius)};
+  // A rotation the pose check accepts (|R^T R - I| <= 1e-9, validate.cpp)
+  // stretches a length by up to sqrt(1 + 3e-9): the radius in the query
+  // frame, where the reach tests run, is up to that much longer.
+  radius *= 1.0 + 2e-9;
   const Vec3 m = Vec3::Constant(shape.margin());
   lo -= m;
   hi += m;

@@ -14,6 +14,7 @@
 #include <future>
 #include <iostream>
 #include <sstream>
+#include <set>
 #include <thread>
 
 namespace meshcontact::fcltest {
@@ -106,6 +107,78 @@ TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
       EXPECT_EQ(compareContacts(grouped, expected, 1e-12, false), "")
           << "broadphase, mesh pose " << i << how;
     }
+  }
+}
+
+// The same across a BroadphaseCollector group of two meshes, each in a frame
+// of its own: the terrain cut in two at x = 1.2, under the cylinder. Each
+// member's hierarchy is asked for the pass's box in its own frame, and the
+// corners welded: the whole terrain's contacts (to the frames' rounding).
+TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
+  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  const TriangleMesh core_mesh = testing::buildMesh(scene);
+  const Cylinder cylinder{0.3, 0.25};
+  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
+  Pose local;
+  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+  QueryScratch core_scratch;
+  std::vector<Contact> core;
+  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
+  ASSERT_FALSE(core.empty());
+  scenes::Rng rng(58);
+  // The pieces: each triangle by its centroid's x, authored in a frame of
+  // its own (turned by 90 or 180 degrees about z, exactly, and moved): each
+  // member's box in its own frame is then the group's, and holds none of the
+  // triangles beyond it that the deep pass needs. `original` maps a piece's
+  // triangle to the terrain's.
+  SceneMesh pieces[2];
+  Pose frames[2];
+  std::vector<std::uint32_t> original[2];
+  for (int j = 0; j < 2; ++j) {
+    frames[j].rotation = j == 0 ? Mat3{{0, -1, 0}, {1, 0, 0}, {0, 0, 1}} : Mat3{{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
+    frames[j].translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
+    for (std::size_t v = 0; v < scene.vertexCount(); ++v) pieces[j].addVertex(frames[j].applyInverse(scene.vertex(v)));
+  }
+  for (std::size_t t = 0; t < scene.triangleCount(); ++t) {
+    const std::uint32_t* tri = &scene.indices[3 * t];
+    const double x = (scene.vertex(tri[0]) + scene.vertex(tri[1]) + scene.vertex(tri[2])).x() / 3.0;
+    const int j = x < 1.2 ? 0 : 1;
+    pieces[j].addTriangle(tri[0], tri[1], tri[2]);
+    original[j].push_back(static_cast<std::uint32_t>(t));
+  }
+  Pose mesh_pose;  // the group's frame, the first piece's, is then axis-aligned with the terrain's
+  mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
+  auto model0 = fclModel<::fcl::OBBRSSd>(pieces[0]), model1 = fclModel<::fcl::OBBRSSd>(pieces[1]);
+  ::fcl::CollisionObjectd m0(model0, toTransform(mesh_pose * frames[0])),
+      m1(model1, toTransform(mesh_pose * frames[1])), s(shape, toTransform(mesh_pose * local));
+  std::vector<::fcl::Contactd> expected;
+  for (const Contact& c : core) expected.push_back(expectedContact(c, mesh_pose, true, nullptr, shape.get()));
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(model0.get()).isOk());
+  ASSERT_TRUE(cache.add(model1.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  const fcl::Options in_place;
+  for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
+    ::fcl::DynamicAABBTreeCollisionManagerd manager;
+    manager.registerObject(&m0);
+    manager.registerObject(&m1);
+    manager.registerObject(&s);
+    manager.setup();
+    fcl::BroadphaseCollector collector(contactsRequest(), *options);
+    manager.collide(&collector, fcl::BroadphaseCollector::callback);
+    ASSERT_TRUE(collector.finish().isOk());
+    std::vector<::fcl::Contactd> grouped;
+    std::set<const ::fcl::CollisionObjectd*> meshes;
+    for (const fcl::ObjectContact& c : collector.contacts()) {
+      if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
+      ::fcl::Contactd g = c.contact;
+      g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
+      grouped.push_back(g);
+      meshes.insert(c.o1);
+    }
+    EXPECT_EQ(meshes.size(), 2u);  // both pieces give contacts
+    EXPECT_EQ(compareContacts(grouped, expected, 1e-9, false), "") << (options == &cached ? "cached" : "in place");
   }
 }
 
@@ -1300,6 +1373,32 @@ TEST(DropInBadInput, PairsFclCrashesOn) {
 // cone and are the projection: x - p makes an obtuse angle with every
 // direction from p into the cone (sampled: apex, rim, base, side, inside).
 // TestCone, the tests' version from the documented behaviour, agrees.
+// The adapter's exact core radii (SupportShape::coreRadius): no point of the
+// shape farther from its center, and one (nearly) that far.
+TEST(DropInShapes, CoreRadiusBoundsTheShape) {
+  const fcl::detail::ConeShape cone(0.3, 0.25);
+  const fcl::detail::EllipsoidShape ellipsoid(Vec3(0.35, 0.25, 0.15));
+  const std::vector<::fcl::Vector3d> prism = [] {
+    std::vector<::fcl::Vector3d> v;
+    for (int k = 0; k < 6; ++k)
+      for (const double z : {-0.2, 0.25})
+        v.emplace_back(0.3 * std::cos(k * M_PI / 3) + 0.05, 0.3 * std::sin(k * M_PI / 3), z);
+    return v;
+  }();
+  const fcl::detail::FclConvexShape convex(prism, 0.8);
+  scenes::Rng rng(62);
+  const SupportShape* shapes[] = {&cone, &ellipsoid, &convex};
+  for (const SupportShape* shape : shapes) {
+    double reached = 0.0;
+    for (int i = 0; i < 5000; ++i) {
+      const double d = (shape->support(rng.unitVector()) - shape->center()).norm();
+      EXPECT_LE(d, shape->coreRadius() * (1 + 1e-12));
+      reached = std::max(reached, d);
+    }
+    EXPECT_GT(reached, 0.99 * shape->coreRadius());
+  }
+}
+
 TEST(DropInShapes, ConeNearestCorePointIsTheProjection) {
   const double r = 0.3, h = 0.25;
   const fcl::detail::ConeShape cone(r, h);

@@ -42,8 +42,9 @@
 // are exactly the core's collide*() on the same mesh), and a support
 // shape's deep passes the triangles on their own, wider box (convex.h,
 // CandidateSource): in place, through a ModelCache and across a
-// BroadphaseCollector group's meshes. postFilter works on FCL's triangles
-// only.
+// BroadphaseCollector group's meshes (those the manager paired with the
+// shape: a mesh it did not pair is not asked, even where a deep pass
+// reaches it). postFilter works on FCL's triangles only.
 //
 // Conventions of every contact this adapter writes (an fcl::Contactd):
 // - o1 / o2: the geometries of the o1 / o2 arguments, in the caller's order
