@@ -766,12 +766,7 @@ TEST(ConvexDeepPasses, CoreRadiusBoundsTheCore) {
   scenes::Rng rng(34);
   const SupportShape* shapes[] = {&ellipsoid, &hull, &cylinder};
   for (const SupportShape* shape : shapes) {
-    double reached = 0.0;
-    for (int i = 0; i < 2000; ++i) {
-      const double d = (shape->support(rng.unitVector()) - shape->center()).norm();
-      EXPECT_LE(d, shape->coreRadius() * (1 + 1e-12));
-      reached = std::max(reached, d);
-    }
+    const double reached = testing::farthestSupportPoint(*shape, rng, 2000);
     if (shape != &ellipsoid) {
       EXPECT_GT(reached, 0.98 * shape->coreRadius());  // exact: a core point reaches it
     }

@@ -1,5 +1,6 @@
 #pragma once
 // Helpers shared by the test files.
+#include <meshcontact/convex.h>
 #include <meshcontact/meshcontact.h>
 #include <meshcontact_scenes/scenes.h>
 
@@ -186,6 +187,18 @@ inline void expectSameGeometry(const std::vector<Contact>& a, const std::vector<
     EXPECT_NEAR(ga[i].depth, gb[i].depth, tol);
     EXPECT_EQ(ga[i].type, gb[i].type);
   }
+}
+
+/// The farthest of `samples` support points (random directions) from the
+/// shape's center, each checked to lie within its coreRadius() (to 1e-12).
+inline double farthestSupportPoint(const SupportShape& shape, scenes::Rng& rng, int samples) {
+  double farthest = 0.0;
+  for (int i = 0; i < samples; ++i) {
+    const double d = (shape.support(rng.unitVector()) - shape.center()).norm();
+    EXPECT_LE(d, shape.coreRadius() * (1 + 1e-12));
+    farthest = std::max(farthest, d);
+  }
+  return farthest;
 }
 
 }  // namespace meshcontact::testing

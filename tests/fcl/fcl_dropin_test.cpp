@@ -47,6 +47,20 @@ TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
 
 // --- Deep passes ---------------------------------------------------------------
 
+// The contacts of a BroadphaseCollector over `objects` in one
+// DynamicAABBTreeCollisionManager (every pair it reports, forwarded ones too).
+std::vector<fcl::ObjectContact> collectedContacts(std::initializer_list<::fcl::CollisionObjectd*> objects,
+                                                  const fcl::Options& options) {
+  ::fcl::DynamicAABBTreeCollisionManagerd manager;
+  for (::fcl::CollisionObjectd* o : objects) manager.registerObject(o);
+  manager.setup();
+  fcl::BroadphaseCollector collector(contactsRequest(), options);
+  manager.collide(&collector, fcl::BroadphaseCollector::callback);
+  const Status s = collector.finish();
+  EXPECT_TRUE(s.isOk()) << s.message();
+  return collector.contacts();
+}
+
 // A support shape sunk past its margin: its deep passes take every triangle
 // within their reach of the shrunk core, some beyond the box the walk is
 // asked for (convex.h, CandidateSource). The drop-in (in place and through
@@ -95,15 +109,8 @@ TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
       ::fcl::CollisionResultd result;
       ASSERT_TRUE(fcl::collide(&m, &s, contactsRequest(), result, *options, scratch).isOk());
       EXPECT_EQ(compareContacts(contactsOf(result), expected, 1e-12), "") << "mesh pose " << i << how;
-      ::fcl::DynamicAABBTreeCollisionManagerd manager;
-      manager.registerObject(&m);
-      manager.registerObject(&s);
-      manager.setup();
-      fcl::BroadphaseCollector collector(contactsRequest(), *options);
-      manager.collide(&collector, fcl::BroadphaseCollector::callback);
-      ASSERT_TRUE(collector.finish().isOk());
       std::vector<::fcl::Contactd> grouped;
-      for (const fcl::ObjectContact& c : collector.contacts()) grouped.push_back(c.contact);
+      for (const fcl::ObjectContact& c : collectedContacts({&m, &s}, *options)) grouped.push_back(c.contact);
       EXPECT_EQ(compareContacts(grouped, expected, 1e-12, false), "")
           << "broadphase, mesh pose " << i << how;
     }
@@ -160,17 +167,9 @@ TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
   cached.cache = &cache;
   const fcl::Options in_place;
   for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
-    ::fcl::DynamicAABBTreeCollisionManagerd manager;
-    manager.registerObject(&m0);
-    manager.registerObject(&m1);
-    manager.registerObject(&s);
-    manager.setup();
-    fcl::BroadphaseCollector collector(contactsRequest(), *options);
-    manager.collide(&collector, fcl::BroadphaseCollector::callback);
-    ASSERT_TRUE(collector.finish().isOk());
     std::vector<::fcl::Contactd> grouped;
     std::set<const ::fcl::CollisionObjectd*> meshes;
-    for (const fcl::ObjectContact& c : collector.contacts()) {
+    for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, *options)) {
       if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
       ::fcl::Contactd g = c.contact;
       g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
@@ -1388,15 +1387,8 @@ TEST(DropInShapes, CoreRadiusBoundsTheShape) {
   const fcl::detail::FclConvexShape convex(prism, 0.8);
   scenes::Rng rng(62);
   const SupportShape* shapes[] = {&cone, &ellipsoid, &convex};
-  for (const SupportShape* shape : shapes) {
-    double reached = 0.0;
-    for (int i = 0; i < 5000; ++i) {
-      const double d = (shape->support(rng.unitVector()) - shape->center()).norm();
-      EXPECT_LE(d, shape->coreRadius() * (1 + 1e-12));
-      reached = std::max(reached, d);
-    }
-    EXPECT_GT(reached, 0.99 * shape->coreRadius());
-  }
+  for (const SupportShape* shape : shapes)
+    EXPECT_GT(testing::farthestSupportPoint(*shape, rng, 5000), 0.99 * shape->coreRadius());
 }
 
 TEST(DropInShapes, ConeNearestCorePointIsTheProjection) {
