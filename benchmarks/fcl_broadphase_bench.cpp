@@ -28,6 +28,10 @@
 //                     shape, the tiles it touches as one surface.
 //   CollectorCached   the same with Options::cache (a ModelCache of the
 //                     64 tiles).
+//   CollectorMeshManager  Collector given the tiles' manager
+//                     (setMeshManager): the support shapes' deep passes ask
+//                     it for the tiles on their boxes that it did not pair
+//                     (contacts only: collision checking has no deep pass).
 //   FclDefault        FCL's DefaultCollisionFunction with a
 //                     DefaultCollisionData: it ends the pass once a
 //                     collision has filled num_max_contacts (with the
@@ -158,11 +162,12 @@ void BM_FclPerPair(benchmark::State& state, bool contacts) {
   state.counters["contacts"] = static_cast<double>(total);
 }
 
-void BM_Collector(benchmark::State& state, bool contacts, bool cached) {
+void BM_Collector(benchmark::State& state, bool contacts, bool cached, bool mesh_manager) {
   World& w = world();
   mc::fcl::Options options;
   if (cached) options.cache = &w.cache;
   mc::fcl::BroadphaseCollector collector(requestFor(contacts), options);
+  if (mesh_manager) collector.setMeshManager(&w.environment);
   std::size_t touching = 0, total = 0;
   for (auto _ : state) {
     collector.clear();
@@ -222,10 +227,13 @@ int main(int argc, char** argv) {
     const char* request = contacts ? "Contacts" : "Boolean";
     benchmark::RegisterBenchmark((std::string("FclPerPair/") + request).c_str(), BM_FclPerPair, contacts)
         ->Repetitions(5);
-    benchmark::RegisterBenchmark((std::string("Collector/") + request).c_str(), BM_Collector, contacts, false)
+    benchmark::RegisterBenchmark((std::string("Collector/") + request).c_str(), BM_Collector, contacts, false, false)
         ->Repetitions(5);
-    benchmark::RegisterBenchmark((std::string("CollectorCached/") + request).c_str(), BM_Collector, contacts, true)
+    benchmark::RegisterBenchmark((std::string("CollectorCached/") + request).c_str(), BM_Collector, contacts, true,
+                                 false)
         ->Repetitions(5);
+    if (contacts)
+      benchmark::RegisterBenchmark("CollectorMeshManager/Contacts", BM_Collector, true, false, true)->Repetitions(5);
     benchmark::RegisterBenchmark((std::string("FclDefault/") + request).c_str(), BM_Default, contacts, false)
         ->Repetitions(5);
     benchmark::RegisterBenchmark((std::string("DropInDefault/") + request).c_str(), BM_Default, contacts, true)

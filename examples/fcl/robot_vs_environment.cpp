@@ -223,6 +223,9 @@ int main() {
     environment.collide(&arm, &fcl_data, fcl::DefaultCollisionFunction<double>);
     // meshcontact: the same broadphase, the collector's callback.
     meshcontact::fcl::BroadphaseCollector collector(fcl::CollisionRequestd(10000, true));
+    // The environment's meshes that a query reaches beyond the bounds the
+    // manager pairs (a contact distance; a convex link's deep passes).
+    collector.setMeshManager(&environment);
     environment.collide(&arm, &collector, meshcontact::fcl::BroadphaseCollector::callback);
     if (meshcontact::Status s = collector.finish(); !s) {
       std::fprintf(stderr, "meshcontact: %s\n", s.message().c_str());

@@ -84,8 +84,17 @@ TEST(FclAllocation, BroadphaseCollectorOnceWarm) {
   for (const auto& t : tiles) manager.registerObject(t.get());
   for (const auto& sh : shapes) manager.registerObject(sh.get());
   manager.setup();
-  for (const bool contacts : {true, false}) {
-    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(contacts ? 64 : 1, contacts));
+  // With the manager given (setMeshManager) and a contact distance, the
+  // collector also asks the manager for the tiles on the boxes the queries
+  // reach (the first gather's and the deep passes').
+  for (int variant = 0; variant < 4; ++variant) {
+    const bool contacts = variant < 2, mesh_manager = variant % 2 == 1;
+    fcl::Options options;
+    if (mesh_manager) options.settings.contact_distance = 0.01;
+    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(contacts ? 64 : 1, contacts), options);
+    if (mesh_manager) collector.setMeshManager(&manager);
+    const std::string what = std::string(contacts ? "contacts" : "collision checking") +
+                             (mesh_manager ? ", with the mesh manager" : "");
     long allocations = 0;
     std::size_t found = 0;
     for (int round = 0; round < 2; ++round) {  // round 0 warms up
@@ -97,8 +106,8 @@ TEST(FclAllocation, BroadphaseCollectorOnceWarm) {
       ASSERT_TRUE(s.isOk()) << s.message();
       found = collector.contacts().size();
     }
-    EXPECT_EQ(allocations, 0) << (contacts ? "contacts" : "collision checking");
-    EXPECT_GT(found, 5u) << (contacts ? "contacts" : "collision checking");  // the queries found contacts
+    EXPECT_EQ(allocations, 0) << what;
+    EXPECT_GT(found, 5u) << what;  // the queries found contacts
   }
 }
 

@@ -49,12 +49,15 @@ TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
 
 // The contacts of a BroadphaseCollector over `objects` in one
 // DynamicAABBTreeCollisionManager (every pair it reports, forwarded ones too).
+// With `mesh_manager`, the collector is given the manager
+// (BroadphaseCollector::setMeshManager).
 std::vector<fcl::ObjectContact> collectedContacts(std::initializer_list<::fcl::CollisionObjectd*> objects,
-                                                  const fcl::Options& options) {
+                                                  const fcl::Options& options, bool mesh_manager = false) {
   ::fcl::DynamicAABBTreeCollisionManagerd manager;
   for (::fcl::CollisionObjectd* o : objects) manager.registerObject(o);
   manager.setup();
   fcl::BroadphaseCollector collector(contactsRequest(), options);
+  if (mesh_manager) collector.setMeshManager(&manager);
   manager.collide(&collector, fcl::BroadphaseCollector::callback);
   const Status s = collector.finish();
   EXPECT_TRUE(s.isOk()) << s.message();
@@ -178,6 +181,123 @@ TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
     }
     EXPECT_EQ(meshes.size(), 2u);  // both pieces give contacts
     EXPECT_EQ(compareContacts(grouped, expected, 1e-9, false), "") << (options == &cached ? "cached" : "in place");
+  }
+}
+
+// A mesh the manager does not pair with the shape (its bounds miss the
+// shape's) but within a deep pass's reach: the terrain above cut in two by
+// height, the piece below the cylinder's bounds (every triangle lower than
+// its bottom) its own object, each piece authored in a frame of its own
+// (moved, not turned, so that FCL's bounds of each stay tight). Given the
+// manager, the collector asks it for the pass's box and gives the whole
+// terrain's contacts; without it, others (the control).
+TEST(DropIn, DeepPassesAskTheMeshManagerForMeshesItDidNotPair) {
+  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  const TriangleMesh core_mesh = testing::buildMesh(scene);
+  const Cylinder cylinder{0.3, 0.25};
+  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
+  Pose local;
+  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+  QueryScratch core_scratch;
+  std::vector<Contact> core;
+  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
+  ASSERT_FALSE(core.empty());
+  const double bottom = local.translation.z() - cylinder.half_length;
+  scenes::Rng rng(59);
+  std::vector<Pose> frames(2);
+  for (Pose& frame : frames) frame.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
+  std::vector<std::vector<std::uint32_t>> original;
+  const std::vector<SceneMesh> pieces = cutMesh(
+      scene, 2,
+      [&](std::size_t t) {
+        double top = -std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 3; ++k) top = std::max(top, scene.vertex(scene.indices[3 * t + k]).z());
+        return top < bottom - 1e-6 ? 1 : 0;
+      },
+      original, frames);
+  ASSERT_FALSE(original[1].empty());
+  Pose mesh_pose;  // moved only: the pieces' world bounds are their own bounds moved
+  mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
+  auto model0 = fclModel<::fcl::OBBRSSd>(pieces[0]), model1 = fclModel<::fcl::OBBRSSd>(pieces[1]);
+  ::fcl::CollisionObjectd m0(model0, toTransform(mesh_pose * frames[0])),
+      m1(model1, toTransform(mesh_pose * frames[1])), s(shape, toTransform(mesh_pose * local));
+  ASSERT_FALSE(m1.getAABB().overlap(s.getAABB()));  // the manager does not pair them
+  ASSERT_TRUE(m0.getAABB().overlap(s.getAABB()));
+  std::vector<::fcl::Contactd> expected;
+  for (const Contact& c : core) expected.push_back(expectedContact(c, mesh_pose, true, nullptr, shape.get()));
+  fcl::ModelCache cache;
+  ASSERT_TRUE(cache.add(model0.get()).isOk());
+  ASSERT_TRUE(cache.add(model1.get()).isOk());
+  fcl::Options cached;
+  cached.cache = &cache;
+  const fcl::Options in_place;
+  for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
+    const char* how = options == &cached ? "cached" : "in place";
+    for (const bool with_manager : {true, false}) {
+      std::vector<::fcl::Contactd> grouped;
+      for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, *options, with_manager)) {
+        if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
+        ::fcl::Contactd g = c.contact;
+        g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
+        grouped.push_back(g);
+      }
+      if (with_manager)
+        EXPECT_EQ(compareContacts(grouped, expected, 1e-9, false), "") << how;
+      else
+        EXPECT_NE(compareContacts(grouped, expected, 1e-9, false), "") << how << ": the control";
+    }
+  }
+}
+
+// The same for a positive contact distance: a box pressed 2 mm into a floor
+// tile, a wall tile 1 cm beside its bounds. At a contact distance of 2 cm
+// the wall gives contacts too, as one core query over both tiles does; the
+// manager pairs the box with the floor only, and without it the collector
+// asks the floor only (the control).
+TEST(DropIn, ContactDistanceAsksTheMeshManagerForMeshesItDidNotPair) {
+  const SceneMesh floor = scenes::flatFloor(8, 8, 0.25, 3);
+  SceneMesh wall;  // the floor turned upright, in the plane x = 1.3, facing -x
+  for (std::size_t v = 0; v < floor.vertexCount(); ++v) {
+    const Vec3 p = floor.vertex(v);
+    wall.addVertex(Vec3(1.3, p.x(), p.y() - 0.5));
+  }
+  for (std::size_t t = 0; t < floor.triangleCount(); ++t)
+    wall.addTriangle(floor.indices[3 * t], floor.indices[3 * t + 2], floor.indices[3 * t + 1]);
+  const TriangleMesh core_floor = testing::buildMesh(floor), core_wall = testing::buildMesh(wall);
+  const MeshInstance instances[2] = {{&core_floor, Pose::identity()}, {&core_wall, Pose::identity()}};
+  const Box box{Vec3(0.2, 0.15, 0.1)};
+  Pose local;
+  local.translation = Vec3(1.3 - 0.01 - 0.2, 1.0, 0.1 - 0.002);
+  QuerySettings settings;
+  settings.contact_distance = 0.02;
+  QueryScratch core_scratch;
+  std::vector<Contact> core;
+  ASSERT_TRUE(collideBox(instances, 2, box, local, settings, core_scratch, core).isOk());
+  std::set<std::uint32_t> core_meshes;
+  for (const Contact& c : core) core_meshes.insert(c.mesh);
+  ASSERT_EQ(core_meshes.size(), 2u);  // the wall is within reach
+
+  auto floor_model = fclModel<::fcl::OBBRSSd>(floor), wall_model = fclModel<::fcl::OBBRSSd>(wall);
+  auto shape = std::make_shared<::fcl::Boxd>(2 * box.half_extents);
+  ::fcl::CollisionObjectd m0(floor_model, ::fcl::Transform3d::Identity()),
+      m1(wall_model, ::fcl::Transform3d::Identity()), s(shape, toTransform(local));
+  ASSERT_FALSE(m1.getAABB().overlap(s.getAABB()));
+  const ::fcl::CollisionGeometryd* models[2] = {floor_model.get(), wall_model.get()};
+  std::vector<::fcl::Contactd> expected;
+  for (const Contact& c : core) expected.push_back(expectedContact(c, Pose::identity(), true, models[c.mesh], shape.get()));
+  fcl::Options options;
+  options.settings.contact_distance = settings.contact_distance;
+  for (const bool with_manager : {true, false}) {
+    std::vector<::fcl::Contactd> grouped;
+    for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, options, with_manager)) {
+      if (c.o2 != &s) continue;  // the tiles' own pair, forwarded to FCL
+      EXPECT_EQ(c.contact.o1, c.o1->collisionGeometry().get());
+      grouped.push_back(c.contact);
+    }
+    if (with_manager)
+      EXPECT_EQ(compareContacts(grouped, expected, 1e-12), "");
+    else
+      EXPECT_NE(compareContacts(grouped, expected, 1e-12), "") << "the control";
   }
 }
 

@@ -6,6 +6,7 @@
 #include "internal.h"
 
 #include <fcl/broadphase/default_broadphase_callbacks.h>
+#include <fcl/geometry/shape/box.h>
 
 #include <algorithm>
 #include <string>
@@ -64,9 +65,33 @@ struct BroadphaseCollector::Impl {
     const TriangleMesh* compact;     // the ModelCache's hierarchy, or null
   };
   std::vector<Member> members;
+  // The group being run: its shape, its frame (the first mesh's), and
+  // whether its meshes differ in pose, with the scale of their weld (the
+  // core's rule: |translation| + |vertex|). Members added by reach
+  // (reachMeshes) update the last two.
+  const ::fcl::CollisionObjectd* group_shape = nullptr;
+  Pose group_frame;
+  bool poses_differ = false;
+  double weld_scale = 0.0;
+
+  // setMeshManager: the manager asked for the meshes within a query's reach
+  // beyond the shape's bounds, and the probe object it is asked with (a box
+  // in the world frame; made on first use, then reused).
+  const ::fcl::BroadPhaseCollisionManagerd* mesh_manager = nullptr;
+  std::shared_ptr<::fcl::Boxd> probe_box;
+  std::unique_ptr<::fcl::CollisionObjectd> probe;
+  std::vector<const ::fcl::CollisionObjectd*> reached;
 
   Status runGroup(const Job& job);
   Status runForwarded(const Pair& pair);
+  // Appends group_meshes[j] to the members (checked as a pair with the
+  // group's shape, mapped to the group's frame); `shape_in_model`: the
+  // shape's pose in its model frame.
+  Status addMember(std::size_t j, Pose& shape_in_model);
+  // Adds to group_meshes (not yet to the members) the mesh objects of
+  // mesh_manager whose bounds overlap the world box [lo, hi] and that the
+  // group does not have yet, in the manager's order.
+  void reachMeshes(const Vec3& lo, const Vec3& hi);
   // Appends member j's triangles in `volume` (its model frame) to `out`,
   // in the group's frame, with mesh index j and its vertex indices as keys.
   Status gatherMember(std::uint32_t j, const detail::QueryVolume& volume, std::vector<CandidateTriangle>& out);
@@ -114,6 +139,56 @@ Status BroadphaseCollector::Impl::joinMembers(bool poses_differ, double weld_sca
   return Status::ok();
 }
 
+Status BroadphaseCollector::Impl::addMember(std::size_t j, Pose& shape_in_model) {
+  const ::fcl::CollisionObjectd& mo = *group_meshes[j];
+  Member member;
+  detail::describeMesh(group_geometries[j], member.mesh);
+  Pose mesh_pose;
+  Status s = detail::checkPair(member.mesh, mo, *group_shape, "a mesh of the group", "shape", mesh_pose, shape_in_model);
+  if (!s) return s;
+  const bool same_frame = mo.getTransform().matrix() == group_meshes[0]->getTransform().matrix();
+  member.to_frame = same_frame ? Pose::identity() : detail::relativePose(group_frame, mesh_pose);
+  poses_differ = poses_differ || !same_frame;
+  // The model's local bounds (CollisionObject's constructor computes them).
+  const ::fcl::CollisionGeometryd& g = *group_geometries[j];
+  weld_scale = std::max(weld_scale, member.to_frame.translation.cwiseAbs().maxCoeff() +
+                                        g.aabb_center.cwiseAbs().maxCoeff() + g.aabb_radius);
+  member.compact = options.cache ? options.cache->impl().find(member.mesh) : nullptr;
+  members.push_back(member);
+  return Status::ok();
+}
+
+void BroadphaseCollector::Impl::reachMeshes(const Vec3& lo, const Vec3& hi) {
+  if (!probe) {
+    probe_box = std::make_shared<::fcl::Boxd>(1.0, 1.0, 1.0);
+    probe = std::make_unique<::fcl::CollisionObjectd>(probe_box);
+  }
+  // The box, a little wider (round-off in its centre and half extents:
+  // more meshes only add triangles that each pass rejects).
+  const Vec3 half = 0.5 * (hi - lo), center = 0.5 * (lo + hi);
+  const Vec3 wide = half + Vec3::Constant(1e-12 * (half.maxCoeff() + center.cwiseAbs().maxCoeff()));
+  probe_box->side = 2.0 * wide;
+  probe_box->computeLocalAABB();
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = center;
+  probe->setTransform(tf);
+  probe->computeAABB();
+  reached.clear();
+  mesh_manager->collide(probe.get(), this, [](::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* data) {
+    auto& impl = *static_cast<Impl*>(data);
+    impl.reached.push_back(o1 == impl.probe.get() ? o2 : o1);
+    return false;
+  });
+  detail::MeshDesc mesh;
+  for (const ::fcl::CollisionObjectd* o : reached) {
+    const ::fcl::CollisionGeometryd* g = o->collisionGeometry().get();
+    if (!detail::describeMesh(g, mesh)) continue;  // a shape, or a geometry the pipeline does not read
+    if (std::find(group_meshes.begin(), group_meshes.end(), o) != group_meshes.end()) continue;
+    group_meshes.push_back(o);
+    group_geometries.push_back(g);
+  }
+}
+
 BroadphaseCollector::BroadphaseCollector(const ::fcl::CollisionRequestd& request, const Options& options)
     : impl_(std::make_unique<Impl>()) {
   impl_->request = request;
@@ -155,9 +230,6 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
   Status s = detail::poseFromTransform(shape_object->getTransform(), "shape", shape_pose);
   if (!s) return s;
 
-  // The query frame is the first mesh's frame: a single mesh gives exactly
-  // collide()'s result, and meshes with bitwise-equal transforms keep
-  // bitwise-equal shared vertices (their seams are then recognized).
   group_meshes.clear();
   group_geometries.clear();
   for (std::uint32_t i = job.begin; i < job.end; ++i) {
@@ -165,6 +237,14 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     if (std::find(group_meshes.begin(), group_meshes.end(), m) != group_meshes.end()) continue;
     group_meshes.push_back(m);
     group_geometries.push_back(m->collisionGeometry().get());
+  }
+  group_shape = shape_object;
+  const double cd = options.settings.contact_distance;
+  if (mesh_manager != nullptr && cd > 0.0) {
+    // The meshes within the contact distance: the manager paired those whose
+    // bounds overlap the shape's, not those within `cd` of them.
+    const ::fcl::AABBd& box = shape_object->getAABB();
+    reachMeshes(box.min_ - Vec3::Constant(cd), box.max_ + Vec3::Constant(cd));
   }
   // Collision checking (a boolean request wanting one contact, as collide()
   // defines it): whether the shape touches any of its meshes, the OR of the
@@ -196,35 +276,22 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     return Status::ok();
   }
 
-  const ::fcl::Transform3d& frame_tf = group_meshes[0]->getTransform();
-  Pose frame;
-  s = detail::poseFromTransform(frame_tf, "mesh 0 of the group", frame);
+  // The query frame is the first mesh's frame: a single mesh gives exactly
+  // collide()'s result, and meshes with bitwise-equal transforms keep
+  // bitwise-equal shared vertices (their seams are then recognized).
+  s = detail::poseFromTransform(group_meshes[0]->getTransform(), "mesh 0 of the group", group_frame);
   if (!s) return s;
-  const Pose shape_in_frame = detail::relativePose(frame, shape_pose);
+  const Pose shape_in_frame = detail::relativePose(group_frame, shape_pose);
 
   Scratch::Impl& sc = scratch.impl();
   sc.candidates.clear();
-  // Objects of different poses: their corners are welded below, on the
-  // scale of their |translation| + |vertex| (the core's pipelines' rule).
-  bool poses_differ = false;
-  double weld_scale = 0.0;
+  poses_differ = false;
+  weld_scale = 0.0;
   members.clear();
   for (std::size_t j = 0; j < group_meshes.size(); ++j) {
-    const ::fcl::CollisionObjectd& mo = *group_meshes[j];
-    Member member;
-    detail::describeMesh(group_geometries[j], member.mesh);
-    Pose mesh_pose, shape_in_model;
-    s = detail::checkPair(member.mesh, mo, *shape_object, "a mesh of the group", "shape", mesh_pose, shape_in_model);
+    Pose shape_in_model;
+    s = addMember(j, shape_in_model);
     if (!s) return s;
-    const bool same_frame = mo.getTransform().matrix() == frame_tf.matrix();
-    member.to_frame = same_frame ? Pose::identity() : detail::relativePose(frame, mesh_pose);
-    poses_differ = poses_differ || !same_frame;
-    // The model's local bounds (CollisionObject's constructor computes them).
-    const ::fcl::CollisionGeometryd& g = *group_geometries[j];
-    weld_scale = std::max(weld_scale, member.to_frame.translation.cwiseAbs().maxCoeff() +
-                                          g.aabb_center.cwiseAbs().maxCoeff() + g.aabb_radius);
-    member.compact = options.cache ? options.cache->impl().find(member.mesh) : nullptr;
-    members.push_back(member);
     s = gatherMember(static_cast<std::uint32_t>(j),
                      detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance), sc.candidates);
     if (!s) return s;
@@ -235,16 +302,25 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
   settings.key_mode = KeyMode::kVertexPosition;
   // A support shape's deep passes gather their own, wider candidates
   // (convex.h, CandidateSource): every member on their box (group frame),
-  // joined as above. (Only the members: a mesh the manager did not pair
-  // with the shape is not asked.)
+  // joined as above. With a mesh manager (setMeshManager), the meshes on
+  // that box the manager did not pair with the shape join the members
+  // first; otherwise only the members are asked.
   struct Members final : CandidateSource {
     Impl& impl;
-    bool poses_differ;
-    double weld_scale;
-    Members(Impl& i, bool p, double w) : impl(i), poses_differ(p), weld_scale(w) {}
+    explicit Members(Impl& i) : impl(i) {}
     Status gather(const Vec3& lo, const Vec3& hi, std::vector<CandidateTriangle>& out) override {
       out.clear();
       const Vec3 center = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+      if (impl.mesh_manager != nullptr) {
+        const Pose& frame = impl.group_frame;
+        const Vec3 world_center = frame.apply(center), world_half = frame.rotation.cwiseAbs() * half;
+        impl.reachMeshes(world_center - world_half, world_center + world_half);
+        for (std::size_t j = impl.members.size(); j < impl.group_meshes.size(); ++j) {
+          Pose shape_in_model;
+          Status s = impl.addMember(j, shape_in_model);
+          if (!s) return s;
+        }
+      }
       for (std::size_t j = 0; j < impl.members.size(); ++j) {
         // The box's bounds in the member's model frame.
         const Pose& to_frame = impl.members[j].to_frame;
@@ -253,9 +329,9 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
         Status s = impl.gatherMember(static_cast<std::uint32_t>(j), detail::boxQueryVolume(c - h, c + h), out);
         if (!s) return s;
       }
-      return impl.joinMembers(poses_differ, weld_scale, out);
+      return impl.joinMembers(impl.poses_differ, impl.weld_scale, out);
     }
-  } deeper(*this, poses_differ, weld_scale);
+  } deeper(*this);
   s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), settings, sc.query,
                                 sc.contacts, CandidateCoverage::kComplete, &deeper);
   if (!s) return s;
@@ -264,7 +340,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     if (detail::throughContact(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), &request, through))
       sc.contacts.push_back(through);
   }
-  detail::convertContacts(sc.contacts, frame, true, group_geometries.data(), shape.geometry,
+  detail::convertContacts(sc.contacts, group_frame, true, group_geometries.data(), shape.geometry,
                           request.num_max_contacts, sc.order, sc.out);
   // out[k] is sc.contacts[sc.order[k]] (convertContacts): its mesh index
   // names the object (several objects may share one geometry).
@@ -313,6 +389,10 @@ Status BroadphaseCollector::finish(::fcl::CollisionResultd& result) {
   Status s = finish();
   for (const ObjectContact& c : impl_->contacts) result.addContact(c.contact);
   return s;
+}
+
+void BroadphaseCollector::setMeshManager(const ::fcl::BroadPhaseCollisionManagerd* meshes) {
+  impl_->mesh_manager = meshes;
 }
 
 const std::vector<ObjectContact>& BroadphaseCollector::contacts() const { return impl_->contacts; }

@@ -43,8 +43,8 @@
 // shape's deep passes the triangles on their own, wider box (convex.h,
 // CandidateSource): in place, through a ModelCache and across a
 // BroadphaseCollector group's meshes (those the manager paired with the
-// shape: a mesh it did not pair is not asked, even where a deep pass
-// reaches it). postFilter works on FCL's triangles only.
+// shape, and with BroadphaseCollector::setMeshManager the manager's other
+// meshes on the pass's box). postFilter works on FCL's triangles only.
 //
 // Conventions of every contact this adapter writes (an fcl::Contactd):
 // - o1 / o2: the geometries of the o1 / o2 arguments, in the caller's order
@@ -83,6 +83,7 @@
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
 
+#include <fcl/broadphase/broadphase_collision_manager.h>
 #include <fcl/narrowphase/collision_object.h>
 #include <fcl/narrowphase/collision_request.h>
 #include <fcl/narrowphase/collision_result.h>
@@ -397,6 +398,21 @@ class BroadphaseCollector {
   Status finish(::fcl::CollisionResultd& result);
 
   const std::vector<ObjectContact>& contacts() const;
+  /// The manager that holds the meshes (the one collide() ran on, or the
+  /// meshes' own with two managers), kept for the passes to come; null (the
+  /// default) forgets it. A manager pairs objects whose bounds overlap, but
+  /// a query reaches beyond the shape's bounds: by a positive
+  /// Options::settings.contact_distance, and in a support shape's deep
+  /// passes by up to its core radius (convex.h, CandidateSource). With the
+  /// manager set, finish() asks it for the meshes on those boxes (world
+  /// frame, against the objects' FCL bounds) that it did not pair with the
+  /// shape, and queries them with the shape's others, checked as they are
+  /// (the same errors): a mesh 1 cm beside a box's bounds gives contacts at
+  /// a contact distance of 2 cm. Without it those meshes are not asked.
+  /// Only shapes the manager paired with some mesh are queried. Each box
+  /// costs a query of the manager's tree (fcl_broadphase_bench:
+  /// +2-3% per pass); the manager must not change until finish() returns.
+  void setMeshManager(const ::fcl::BroadPhaseCollisionManagerd* meshes);
   /// Forgets the collected pairs and contacts (keeps the memory).
   void clear();
 
