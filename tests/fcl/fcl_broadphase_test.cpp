@@ -295,9 +295,7 @@ TEST(Broadphase, GivenTheMeshManagerContactsAreTheCoresOverEveryTile) {
     for (const bool with_manager : {true, false}) {
       fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(1000, true), options);
       if (with_manager) collector.setMeshManager(&manager);
-      manager.collide(&collector, [](::fcl::CollisionObjectd* o1, ::fcl::CollisionObjectd* o2, void* data) {
-        return fcl::BroadphaseCollector::callback(o1, o2, data);
-      });
+      manager.collide(&collector, fcl::BroadphaseCollector::callback);
       ASSERT_TRUE(collector.finish().isOk());
       for (const fcl::ObjectContact& c : collector.contacts()) {
         if (tileOf(c.o1) < 0 || tileOf(c.o2) >= 0) continue;  // forwarded: tile-tile, shape-shape
