@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -125,6 +126,33 @@ inline scenes::SceneMesh ridgeRoof() {
   roof.addTriangle(a, e, b);
   roof.addTriangle(a, f, e);
   return roof;
+}
+
+/// `scene` cut into `count` pieces: triangle t goes to piece `piece_of(t)`,
+/// written in the piece's frame `frames[j]` (none: the scene's). Each piece
+/// holds only its triangles' vertices (FCL's and ODE's bounds of a mesh
+/// cover all its vertices); original[j][i] is piece j's triangle i's index
+/// in `scene`.
+inline std::vector<scenes::SceneMesh> cutMesh(const scenes::SceneMesh& scene, int count,
+                                      const std::function<int(std::size_t)>& piece_of,
+                                      std::vector<std::vector<std::uint32_t>>& original,
+                                      const std::vector<Pose>& frames = {}) {
+  std::vector<scenes::SceneMesh> pieces(static_cast<std::size_t>(count));
+  std::vector<std::vector<std::uint32_t>> index(pieces.size(), std::vector<std::uint32_t>(scene.vertexCount(), ~0u));
+  original.assign(pieces.size(), {});
+  for (std::size_t t = 0; t < scene.triangleCount(); ++t) {
+    const auto j = static_cast<std::size_t>(piece_of(t));
+    std::uint32_t corner[3];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = scene.indices[3 * t + static_cast<std::size_t>(k)];
+      if (index[j][v] == ~0u)
+        index[j][v] = pieces[j].addVertex(frames.empty() ? scene.vertex(v) : frames[j].applyInverse(scene.vertex(v)));
+      corner[k] = index[j][v];
+    }
+    pieces[j].addTriangle(corner[0], corner[1], corner[2]);
+    original[j].push_back(static_cast<std::uint32_t>(t));
+  }
+  return pieces;
 }
 
 /// Builds a mesh or fails the test with the build's message.

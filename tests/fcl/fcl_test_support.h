@@ -15,7 +15,6 @@
 #include <fcl/fcl.h>
 
 #include <cmath>
-#include <functional>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -25,6 +24,7 @@ namespace meshcontact::fcltest {
 
 using scenes::fclModel;
 using scenes::SceneMesh;
+using testing::cutMesh;
 
 /// Several pieces as one model (duplicated vertices at the seams).
 inline SceneMesh merged(const std::vector<SceneMesh>& pieces) {
@@ -278,35 +278,6 @@ inline std::vector<ShapeCase> allShapes() {
       {Kind::kEllipsoid, "ellipsoid", Vec3(0.35, 0.25, 0.15)},
       {Kind::kConvex, "convex", Vec3(0.3, 0.2, 0)},
   };
-}
-
-// --- Pieces of a mesh ----------------------------------------------------------
-
-/// `scene` cut into `count` pieces: triangle t goes to piece `piece_of(t)`,
-/// written in the piece's frame `frames[j]` (none: the scene's). Each piece
-/// holds only its triangles' vertices (FCL's bounds of a model are those of
-/// all its vertices); original[j][i] is piece j's triangle i's index in
-/// `scene`.
-inline std::vector<SceneMesh> cutMesh(const SceneMesh& scene, int count,
-                                      const std::function<int(std::size_t)>& piece_of,
-                                      std::vector<std::vector<std::uint32_t>>& original,
-                                      const std::vector<Pose>& frames = {}) {
-  std::vector<SceneMesh> pieces(static_cast<std::size_t>(count));
-  std::vector<std::vector<std::uint32_t>> index(pieces.size(), std::vector<std::uint32_t>(scene.vertexCount(), ~0u));
-  original.assign(pieces.size(), {});
-  for (std::size_t t = 0; t < scene.triangleCount(); ++t) {
-    const auto j = static_cast<std::size_t>(piece_of(t));
-    std::uint32_t corner[3];
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t v = scene.indices[3 * t + static_cast<std::size_t>(k)];
-      if (index[j][v] == ~0u)
-        index[j][v] = pieces[j].addVertex(frames.empty() ? scene.vertex(v) : frames[j].applyInverse(scene.vertex(v)));
-      corner[k] = index[j][v];
-    }
-    pieces[j].addTriangle(corner[0], corner[1], corner[2]);
-    original[j].push_back(static_cast<std::uint32_t>(t));
-  }
-  return pieces;
 }
 
 // --- Conversions -------------------------------------------------------------

@@ -501,6 +501,72 @@ TEST(OdeConventions, GroupedTilesAreOneSurface) {
   dGeomDestroy(sphere);
 }
 
+// A cylinder sunk into a terrain made of two grouped pieces: the piece
+// below the cylinder's bounds (every triangle lower than its bottom) misses
+// the bounds ODE pairs, but lies within the reach of the cylinder's deep
+// passes (convex.h: the core shrunk toward its centre takes every triangle
+// within its reach, and one below the bounds voids an edge contact 0.017
+// deep here). The group query takes every member within that reach: the
+// whole terrain's contacts, through dCollide on the paired piece and
+// through collideWithGroup.
+TEST(OdeConventions, GroupedDeepPassesReachMembersBeyondTheShapesBounds) {
+  Session session;
+  ASSERT_TRUE(ode::installColliders().isOk());
+  const scenes::SceneMesh terrain = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  const TriangleMesh whole = testing::buildMesh(terrain);
+  const Cylinder cylinder{0.3, 0.25};
+  const Vec3 at(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
+  QueryScratch scratch;
+  std::vector<Contact> want;
+  ASSERT_TRUE(collideCylinder(whole, cylinder, Pose{Mat3::Identity(), at}, ode::currentSettings().query, scratch, want)
+                  .isOk());
+  ASSERT_FALSE(want.empty());
+  const double bottom = at.z() - cylinder.half_length;
+  std::vector<std::vector<std::uint32_t>> original;
+  const OdeTiles pieces(testing::cutMesh(terrain, 2,
+                                         [&](std::size_t t) {
+                                           double top = -std::numeric_limits<double>::infinity();
+                                           for (int k = 0; k < 3; ++k)
+                                             top = std::max(top, terrain.vertex(terrain.indices[3 * t + k]).z());
+                                           return top < bottom - 1e-6 ? 1 : 0;
+                                         },
+                                         original));
+  dGeomID shape = dCreateCylinder(nullptr, cylinder.radius, 2 * cylinder.half_length);
+  dGeomSetPosition(shape, at.x(), at.y(), at.z());
+  dReal shape_box[6], below_box[6];
+  dGeomGetAABB(shape, shape_box);
+  dGeomGetAABB(pieces.geoms[1], below_box);
+  ASSERT_LT(below_box[5], shape_box[4]);  // ODE does not pair them
+  ASSERT_TRUE(ode::makeGroup(pieces.geoms.data(), 2).isOk());
+  // The contacts as (point, normal into the shape, depth), sorted.
+  using Row = std::array<double, 7>;
+  auto sorted = [](std::vector<Row> rows) {
+    std::sort(rows.begin(), rows.end());
+    return rows;
+  };
+  std::vector<Row> expected, paired, helper;
+  for (const Contact& c : want)
+    expected.push_back({c.point.x(), c.point.y(), c.point.z(), c.normal.x(), c.normal.y(), c.normal.z(), c.depth});
+  dContactGeom got[16];
+  const int n = dCollide(shape, pieces.geoms[0], 16, got, sizeof(dContactGeom));
+  for (int i = 0; i < n; ++i)
+    paired.push_back({got[i].pos[0], got[i].pos[1], got[i].pos[2], got[i].normal[0], got[i].normal[1],
+                      got[i].normal[2], got[i].depth});
+  EXPECT_EQ(dCollide(shape, pieces.geoms[1], 16, got, sizeof(dContactGeom)), 0);  // no contact on the piece below
+  const int nh = ode::collideWithGroup(shape, pieces.geoms.data(), 2, 16, got, sizeof(dContactGeom));
+  for (int i = 0; i < nh; ++i)
+    helper.push_back({got[i].pos[0], got[i].pos[1], got[i].pos[2], got[i].normal[0], got[i].normal[1],
+                      got[i].normal[2], got[i].depth});
+  for (const auto* rows : {&paired, &helper}) {
+    const std::vector<Row> e = sorted(expected), g = sorted(*rows);
+    ASSERT_EQ(g.size(), e.size()) << (rows == &paired ? "dCollide" : "collideWithGroup");
+    for (std::size_t i = 0; i < e.size(); ++i)
+      for (int k = 0; k < 7; ++k) EXPECT_NEAR(g[i][k], e[i][k], 1e-12) << "contact " << i << ", entry " << k;
+  }
+  for (dGeomID g : pieces.geoms) ode::leaveGroup(g);
+  dGeomDestroy(shape);
+}
+
 // One trial of the group memo tests (2 x 2 tiles, a sphere around their
 // shared corner): the sphere of radius 0.3 at `c`, the tiles at the origin,
 // the first pair (the first tile) filling the thread's memos, then one input

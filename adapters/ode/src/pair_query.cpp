@@ -5,6 +5,7 @@
 #include "adapter.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <functional>
 #include <string>
@@ -147,6 +148,22 @@ bool aabbOverlap(const dReal a[6], const dReal b[6], double margin) {
   return true;
 }
 
+// How far beyond its bounds `shape` may take triangles into account, over
+// the contact distance: a support shape's (cylinder, convex) deep passes
+// shrink its core toward its centre and take every triangle within the
+// pass's reach (convex.h, CandidateSource), up to the core's radius about
+// its centre beyond the shape's bounds. The bounds' diagonal bounds that
+// radius (the centre and the core lie within them). The members within it
+// join the group query, where they can only void features: the contacts
+// lie on members within the contact distance of the shape's bounds.
+double reachBeyondBounds(dGeomID shape, const dReal box[6]) {
+  const int c = dGeomGetClass(shape);
+  if (c != dCylinderClass && c != dConvexClass) return 0.0;
+  const double diagonal = std::sqrt(std::pow(box[1] - box[0], 2) + std::pow(box[3] - box[2], 2) +
+                                    std::pow(box[5] - box[4], 2));
+  return std::isfinite(diagonal) ? diagonal : 0.0;
+}
+
 // Instance pose of a member in the frame `frame`. Bitwise-equal poses give
 // the exact identity so that shared vertices keep their bits (position keys).
 Pose relativePose(const Pose& frame, const Pose& member) {
@@ -201,6 +218,7 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
   ctx.frame = geomPose(group->members.front());
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
+  const double reach = settings.contact_distance + reachBeyondBounds(shape, shape_box);
   for (dGeomID m : group->members) {
     // A member without triangles is skipped whichever way its AABB (which
     // ODE computes from bounds it never set) goes: not tested for first,
@@ -213,7 +231,7 @@ Status gatherInstances(dGeomID trimesh, dGeomID shape, const QuerySettings& sett
     }
     dReal box[6];
     dGeomGetAABB(m, box);
-    if (m != trimesh && !aabbOverlap(shape_box, box, settings.contact_distance)) continue;
+    if (m != trimesh && !aabbOverlap(shape_box, box, reach)) continue;
     Status s = addInstance(m, ctx.frame, m == trimesh, ctx);
     if (!s) return s;
     if (m == trimesh) own = static_cast<std::uint32_t>(ctx.instances.size() - 1);  // added, or an error above
@@ -271,6 +289,7 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
   ctx.frame = geomPose(trimeshes[0]);
   dReal shape_box[6];
   dGeomGetAABB(shape, shape_box);
+  const double reach = settings.contact_distance + reachBeyondBounds(shape, shape_box);
   for (int i = 0; i < count; ++i) {
     if (hasNoTriangles(trimeshes[i])) {
       // Reported, and the other pieces still collide: this one has nothing
@@ -285,7 +304,7 @@ Status gatherInstanceList(const dGeomID* trimeshes, int count, dGeomID shape, co
     }
     dReal box[6];
     dGeomGetAABB(trimeshes[i], box);
-    if (!aabbOverlap(shape_box, box, settings.contact_distance)) continue;
+    if (!aabbOverlap(shape_box, box, reach)) continue;
     Status s = addInstance(trimeshes[i], ctx.frame, false, ctx);
     if (!s) return {s.code(), "collideWithGroup: trimesh " + std::to_string(i) + ": " + s.message()};
   }

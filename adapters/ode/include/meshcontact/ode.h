@@ -200,8 +200,10 @@ dGeomID createConvex(dSpaceID space, const dReal* planes, unsigned plane_count, 
 
 /// Makes these trimesh geoms one surface: whenever the override (or the
 /// triangle filter) handles a shape against any member, it gathers the
-/// triangles of every member whose AABB touches the shape's into one query
-/// and keeps the contacts of the member asked. The members' vertices are
+/// triangles of every member whose AABB touches the shape's (grown by the
+/// contact distance, and for a cylinder or convex by its AABB's diagonal:
+/// their deep passes reach that far, convex.h) into one query and keeps the
+/// contacts of the member asked. The members' vertices are
 /// compared by exact position in the frame of the first member: pieces meet
 /// without seams when their shared vertices are bitwise equal there (e.g.
 /// pieces authored in one frame and given the same geom pose).
