@@ -64,6 +64,24 @@ std::vector<fcl::ObjectContact> collectedContacts(std::initializer_list<::fcl::C
   return collector.contacts();
 }
 
+// The deep-pass tests' case: a cylinder sunk into a fine sine terrain, where
+// triangles beyond its bounds decide its contacts (one below them voids an
+// edge contact 0.017 deep), and the core's contacts for it (mesh frame).
+struct SunkCylinder {
+  SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  TriangleMesh core_mesh = testing::buildMesh(scene);
+  Cylinder cylinder{0.3, 0.25};
+  std::shared_ptr<::fcl::Cylinderd> shape =
+      std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
+  Pose local{Mat3::Identity(), Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275)};
+  std::vector<Contact> core;
+  SunkCylinder() {
+    QueryScratch scratch;
+    EXPECT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), scratch, core).isOk());
+    EXPECT_FALSE(core.empty());
+  }
+};
+
 // A support shape sunk past its margin: its deep passes take every triangle
 // within their reach of the shrunk core, some beyond the box the walk is
 // asked for (convex.h, CandidateSource). The drop-in (in place and through
@@ -72,16 +90,11 @@ std::vector<fcl::ObjectContact> collectedContacts(std::initializer_list<::fcl::C
 // cylinder kept an edge contact 0.017 deep that a triangle below the box
 // voids.
 TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
-  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
+  const SunkCylinder sunk;
+  const auto& [scene, core_mesh, cylinder, shape, local, core] = sunk;
   auto model = fclModel<::fcl::OBBRSSd>(scene);
-  const TriangleMesh core_mesh = testing::buildMesh(scene);
-  const Cylinder cylinder{0.3, 0.25};
-  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
-  Pose local;
-  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
   QueryScratch core_scratch;
-  std::vector<Contact> core, box_alone;
-  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
+  std::vector<Contact> box_alone;
   // The control: the candidates of the shape's box (upright: its radius and
   // half length about its centre) alone give other contacts.
   std::vector<CandidateTriangle> boxed;
@@ -125,37 +138,27 @@ TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
 // member's hierarchy is asked for the pass's box in its own frame, and the
 // corners welded: the whole terrain's contacts (to the frames' rounding).
 TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
-  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
-  const TriangleMesh core_mesh = testing::buildMesh(scene);
-  const Cylinder cylinder{0.3, 0.25};
-  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
-  Pose local;
-  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
-  QueryScratch core_scratch;
-  std::vector<Contact> core;
-  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
-  ASSERT_FALSE(core.empty());
+  const SunkCylinder sunk;
+  const auto& [scene, core_mesh, cylinder, shape, local, core] = sunk;
   scenes::Rng rng(58);
   // The pieces: each triangle by its centroid's x, authored in a frame of
   // its own (turned by 90 or 180 degrees about z, exactly, and moved): each
   // member's box in its own frame is then the group's, and holds none of the
   // triangles beyond it that the deep pass needs. `original` maps a piece's
   // triangle to the terrain's.
-  SceneMesh pieces[2];
-  Pose frames[2];
-  std::vector<std::uint32_t> original[2];
+  std::vector<Pose> frames(2);
   for (int j = 0; j < 2; ++j) {
     frames[j].rotation = j == 0 ? Mat3{{0, -1, 0}, {1, 0, 0}, {0, 0, 1}} : Mat3{{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}};
     frames[j].translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
-    for (std::size_t v = 0; v < scene.vertexCount(); ++v) pieces[j].addVertex(frames[j].applyInverse(scene.vertex(v)));
   }
-  for (std::size_t t = 0; t < scene.triangleCount(); ++t) {
-    const std::uint32_t* tri = &scene.indices[3 * t];
-    const double x = (scene.vertex(tri[0]) + scene.vertex(tri[1]) + scene.vertex(tri[2])).x() / 3.0;
-    const int j = x < 1.2 ? 0 : 1;
-    pieces[j].addTriangle(tri[0], tri[1], tri[2]);
-    original[j].push_back(static_cast<std::uint32_t>(t));
-  }
+  std::vector<std::vector<std::uint32_t>> original;
+  const std::vector<SceneMesh> pieces = cutMesh(
+      scene, 2,
+      [&](std::size_t t) {
+        const std::uint32_t* tri = &scene.indices[3 * t];
+        return (scene.vertex(tri[0]) + scene.vertex(tri[1]) + scene.vertex(tri[2])).x() / 3.0 < 1.2 ? 0 : 1;
+      },
+      original, frames);
   Pose mesh_pose;  // the group's frame, the first piece's, is then axis-aligned with the terrain's
   mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
   auto model0 = fclModel<::fcl::OBBRSSd>(pieces[0]), model1 = fclModel<::fcl::OBBRSSd>(pieces[1]);
@@ -192,16 +195,8 @@ TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
 // manager, the collector asks it for the pass's box and gives the whole
 // terrain's contacts; without it, others (the control).
 TEST(DropIn, DeepPassesAskTheMeshManagerForMeshesItDidNotPair) {
-  const SceneMesh scene = scenes::sineTerrain(40, 40, 0.125, 0.3, 2.0, 13);
-  const TriangleMesh core_mesh = testing::buildMesh(scene);
-  const Cylinder cylinder{0.3, 0.25};
-  auto shape = std::make_shared<::fcl::Cylinderd>(cylinder.radius, 2 * cylinder.half_length);
-  Pose local;
-  local.translation = Vec3(1.2699193792088759, 0.29870647625226865, 0.24007798341340275);
-  QueryScratch core_scratch;
-  std::vector<Contact> core;
-  ASSERT_TRUE(collideCylinder(core_mesh, cylinder, local, QuerySettings(), core_scratch, core).isOk());
-  ASSERT_FALSE(core.empty());
+  const SunkCylinder sunk;
+  const auto& [scene, core_mesh, cylinder, shape, local, core] = sunk;
   const double bottom = local.translation.z() - cylinder.half_length;
   scenes::Rng rng(59);
   std::vector<Pose> frames(2);
