@@ -233,14 +233,18 @@ void leaveGroup(dGeomID trimesh);
 /// surface in one query (no registration). Contacts as for dCollide(shape,
 /// piece): g1 = shape, g2 = the trimesh piece holding the triangle, normal
 /// from the mesh toward the shape (into g1), side1 = -1, side2 = triangle
-/// index. Budget and selection as above. Returns the number written; errors
+/// index. Budget and selection as above. The pieces a query takes are the
+/// listed ones a member of a group would take (AABBs, as above): for a
+/// cylinder or convex, list the pieces within its AABB's diagonal of its
+/// AABB, not only those it touches. Returns the number written; errors
 /// are reported (see "Errors") and give 0, among them the arguments dCollide
 /// would have checked: a null shape, contacts or trimesh, no trimesh, skip
 /// below sizeof(dContactGeom), a trimesh listed twice, a listed geom that
 /// is not a trimesh (a plane: ODE's accessors would end the process), a
 /// shape of a class the adapter does not handle (kInvalidShape). A listed
 /// trimesh with no data (kMeshNotBuilt) or whose data has no triangles
-/// (kEmptyMesh) is reported and left out; the others still collide. The frame of the query is trimeshes[0]'s, and ties
+/// (kEmptyMesh) is reported and left out; the others still collide. The
+/// frame of the query is trimeshes[0]'s, and ties
 /// between pieces go to the one listed first: keep the list in one order for
 /// repeatable results.
 int collideWithGroup(dGeomID shape, const dGeomID* trimeshes, int count, int flags, dContactGeom* contacts,
