@@ -277,7 +277,8 @@ TEST(Broadphase, GivenTheMeshManagerContactsAreTheCoresOverEveryTile) {
       const ::fcl::AABBd bounds = object->getAABB();  // about the origin
       const int axis = rng.uniform(0.0, 1.0) < 0.5 ? 0 : 1;
       const double seam = 0.5 * std::round(rng.uniform(2.0, 6.0)), gap = rng.uniform(0.0, 0.05);
-      pose.translation[axis] = rng.uniform(0.0, 1.0) < 0.5 ? seam - gap - bounds.max_[axis] : seam + gap - bounds.min_[axis];
+      pose.translation[axis] =
+          rng.uniform(0.0, 1.0) < 0.5 ? seam - gap - bounds.max_[axis] : seam + gap - bounds.min_[axis];
       pose.translation[1 - axis] = rng.uniform(0.4, 3.6);
       const double low = shape.extentAlong(pose.rotation.transpose() * -Vec3::UnitZ());
       pose.translation.z() = heightAt(pose.translation.x(), pose.translation.y()) + low + rng.uniform(-0.1, 0.03);

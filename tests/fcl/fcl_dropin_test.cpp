@@ -82,6 +82,48 @@ struct SunkCylinder {
   }
 };
 
+// The sunk cylinder's terrain as two mesh objects of a BroadphaseCollector
+// group: piece j written in frames[j] and placed at mesh_pose * frames[j]
+// (`original`: cutMesh's triangle map), the cylinder at mesh_pose * local,
+// and the core's contacts in FCL's conventions (`expected`).
+struct TwoPieces {
+  std::vector<std::vector<std::uint32_t>> original;
+  std::shared_ptr<::fcl::BVHModel<::fcl::OBBRSSd>> model0, model1;
+  ::fcl::CollisionObjectd m0, m1, s;
+  std::vector<::fcl::Contactd> expected;
+  fcl::ModelCache cache;
+  TwoPieces(const SunkCylinder& sunk, const std::vector<SceneMesh>& pieces,
+            std::vector<std::vector<std::uint32_t>> map, const std::vector<Pose>& frames, const Pose& mesh_pose)
+      : original(std::move(map)),
+        model0(fclModel<::fcl::OBBRSSd>(pieces[0])),
+        model1(fclModel<::fcl::OBBRSSd>(pieces[1])),
+        m0(model0, toTransform(mesh_pose * frames[0])),
+        m1(model1, toTransform(mesh_pose * frames[1])),
+        s(sunk.shape, toTransform(mesh_pose * sunk.local)) {
+    for (const Contact& c : sunk.core)
+      expected.push_back(expectedContact(c, mesh_pose, true, nullptr, sunk.shape.get()));
+    EXPECT_TRUE(cache.add(model0.get()).isOk());
+    EXPECT_TRUE(cache.add(model1.get()).isOk());
+  }
+  // The collector's contacts for the cylinder (in place or through the
+  // cache; given the manager or not), each b1 the terrain's triangle;
+  // `meshes` (optional) gets the objects that gave them.
+  std::vector<::fcl::Contactd> grouped(bool cached, bool mesh_manager,
+                                       std::set<const ::fcl::CollisionObjectd*>* meshes = nullptr) {
+    fcl::Options options;
+    if (cached) options.cache = &cache;
+    std::vector<::fcl::Contactd> out;
+    for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, options, mesh_manager)) {
+      if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
+      ::fcl::Contactd g = c.contact;
+      g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
+      out.push_back(g);
+      if (meshes) meshes->insert(c.o1);
+    }
+    return out;
+  }
+};
+
 // A support shape sunk past its margin: its deep passes take every triangle
 // within their reach of the shrunk core, some beyond the box the walk is
 // asked for (convex.h, CandidateSource). The drop-in (in place and through
@@ -139,7 +181,7 @@ TEST(DropIn, DeepPassesTakeEveryTriangleWithinReach) {
 // corners welded: the whole terrain's contacts (to the frames' rounding).
 TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
   const SunkCylinder sunk;
-  const auto& [scene, core_mesh, cylinder, shape, local, core] = sunk;
+  const SceneMesh& scene = sunk.scene;
   scenes::Rng rng(58);
   // The pieces: each triangle by its centroid's x, authored in a frame of
   // its own (turned by 90 or 180 degrees about z, exactly, and moved): each
@@ -161,29 +203,12 @@ TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
       original, frames);
   Pose mesh_pose;  // the group's frame, the first piece's, is then axis-aligned with the terrain's
   mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
-  auto model0 = fclModel<::fcl::OBBRSSd>(pieces[0]), model1 = fclModel<::fcl::OBBRSSd>(pieces[1]);
-  ::fcl::CollisionObjectd m0(model0, toTransform(mesh_pose * frames[0])),
-      m1(model1, toTransform(mesh_pose * frames[1])), s(shape, toTransform(mesh_pose * local));
-  std::vector<::fcl::Contactd> expected;
-  for (const Contact& c : core) expected.push_back(expectedContact(c, mesh_pose, true, nullptr, shape.get()));
-  fcl::ModelCache cache;
-  ASSERT_TRUE(cache.add(model0.get()).isOk());
-  ASSERT_TRUE(cache.add(model1.get()).isOk());
-  fcl::Options cached;
-  cached.cache = &cache;
-  const fcl::Options in_place;
-  for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
-    std::vector<::fcl::Contactd> grouped;
+  TwoPieces group(sunk, pieces, original, frames, mesh_pose);
+  for (const bool cached : {false, true}) {
     std::set<const ::fcl::CollisionObjectd*> meshes;
-    for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, *options)) {
-      if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
-      ::fcl::Contactd g = c.contact;
-      g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
-      grouped.push_back(g);
-      meshes.insert(c.o1);
-    }
+    const std::vector<::fcl::Contactd> grouped = group.grouped(cached, false, &meshes);
     EXPECT_EQ(meshes.size(), 2u);  // both pieces give contacts
-    EXPECT_EQ(compareContacts(grouped, expected, 1e-9, false), "") << (options == &cached ? "cached" : "in place");
+    EXPECT_EQ(compareContacts(grouped, group.expected, 1e-9, false), "") << (cached ? "cached" : "in place");
   }
 }
 
@@ -196,8 +221,8 @@ TEST(DropIn, DeepPassesReachAcrossTheGroupsMeshes) {
 // terrain's contacts; without it, others (the control).
 TEST(DropIn, DeepPassesAskTheMeshManagerForMeshesItDidNotPair) {
   const SunkCylinder sunk;
-  const auto& [scene, core_mesh, cylinder, shape, local, core] = sunk;
-  const double bottom = local.translation.z() - cylinder.half_length;
+  const SceneMesh& scene = sunk.scene;
+  const double bottom = sunk.local.translation.z() - sunk.cylinder.half_length;
   scenes::Rng rng(59);
   std::vector<Pose> frames(2);
   for (Pose& frame : frames) frame.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
@@ -213,34 +238,14 @@ TEST(DropIn, DeepPassesAskTheMeshManagerForMeshesItDidNotPair) {
   ASSERT_FALSE(original[1].empty());
   Pose mesh_pose;  // moved only: the pieces' world bounds are their own bounds moved
   mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
-  auto model0 = fclModel<::fcl::OBBRSSd>(pieces[0]), model1 = fclModel<::fcl::OBBRSSd>(pieces[1]);
-  ::fcl::CollisionObjectd m0(model0, toTransform(mesh_pose * frames[0])),
-      m1(model1, toTransform(mesh_pose * frames[1])), s(shape, toTransform(mesh_pose * local));
-  ASSERT_FALSE(m1.getAABB().overlap(s.getAABB()));  // the manager does not pair them
-  ASSERT_TRUE(m0.getAABB().overlap(s.getAABB()));
-  std::vector<::fcl::Contactd> expected;
-  for (const Contact& c : core) expected.push_back(expectedContact(c, mesh_pose, true, nullptr, shape.get()));
-  fcl::ModelCache cache;
-  ASSERT_TRUE(cache.add(model0.get()).isOk());
-  ASSERT_TRUE(cache.add(model1.get()).isOk());
-  fcl::Options cached;
-  cached.cache = &cache;
-  const fcl::Options in_place;
-  for (const fcl::Options* options : {&in_place, static_cast<const fcl::Options*>(&cached)}) {
-    const char* how = options == &cached ? "cached" : "in place";
-    for (const bool with_manager : {true, false}) {
-      std::vector<::fcl::Contactd> grouped;
-      for (const fcl::ObjectContact& c : collectedContacts({&m0, &m1, &s}, *options, with_manager)) {
-        if (c.o2 != &s) continue;  // the two pieces' own pair, forwarded to FCL
-        ::fcl::Contactd g = c.contact;
-        g.b1 = static_cast<int>(original[c.o1 == &m0 ? 0 : 1][static_cast<std::size_t>(g.b1)]);
-        grouped.push_back(g);
-      }
-      if (with_manager)
-        EXPECT_EQ(compareContacts(grouped, expected, 1e-9, false), "") << how;
-      else
-        EXPECT_NE(compareContacts(grouped, expected, 1e-9, false), "") << how << ": the control";
-    }
+  TwoPieces group(sunk, pieces, original, frames, mesh_pose);
+  ASSERT_FALSE(group.m1.getAABB().overlap(group.s.getAABB()));  // the manager does not pair them
+  ASSERT_TRUE(group.m0.getAABB().overlap(group.s.getAABB()));
+  for (const bool cached : {false, true}) {
+    const char* how = cached ? "cached" : "in place";
+    EXPECT_EQ(compareContacts(group.grouped(cached, true), group.expected, 1e-9, false), "") << how;
+    EXPECT_NE(compareContacts(group.grouped(cached, false), group.expected, 1e-9, false), "")
+        << how << ": the control";
   }
 }
 
@@ -279,7 +284,8 @@ TEST(DropIn, ContactDistanceAsksTheMeshManagerForMeshesItDidNotPair) {
   ASSERT_FALSE(m1.getAABB().overlap(s.getAABB()));
   const ::fcl::CollisionGeometryd* models[2] = {floor_model.get(), wall_model.get()};
   std::vector<::fcl::Contactd> expected;
-  for (const Contact& c : core) expected.push_back(expectedContact(c, Pose::identity(), true, models[c.mesh], shape.get()));
+  for (const Contact& c : core)
+    expected.push_back(expectedContact(c, Pose::identity(), true, models[c.mesh], shape.get()));
   fcl::Options options;
   options.settings.contact_distance = settings.contact_distance;
   for (const bool with_manager : {true, false}) {

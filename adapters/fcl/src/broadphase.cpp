@@ -144,7 +144,8 @@ Status BroadphaseCollector::Impl::addMember(std::size_t j, Pose& shape_in_model)
   Member member;
   detail::describeMesh(group_geometries[j], member.mesh);
   Pose mesh_pose;
-  Status s = detail::checkPair(member.mesh, mo, *group_shape, "a mesh of the group", "shape", mesh_pose, shape_in_model);
+  Status s =
+      detail::checkPair(member.mesh, mo, *group_shape, "a mesh of the group", "shape", mesh_pose, shape_in_model);
   if (!s) return s;
   const bool same_frame = mo.getTransform().matrix() == group_meshes[0]->getTransform().matrix();
   member.to_frame = same_frame ? Pose::identity() : detail::relativePose(group_frame, mesh_pose);
