@@ -633,6 +633,49 @@ TEST(Broadphase, DefaultCollisionFunctionIsFclsWithTheDropIn) {
   EXPECT_EQ(counted.data.result.numContacts(), 0u);
 }
 
+// A mesh the mesh manager gives (setMeshManager) is checked as a paired one:
+// an unfinished model (endModel not called) 1 cm beside a box's bounds,
+// within the contact distance, is the group's error (kMeshNotBuilt), not
+// skipped; a non-mesh object beside it (a sphere) is left to its own pairs.
+// Without the manager the unfinished model is never read.
+TEST(Broadphase, TheMeshManagersMeshesAreChecked) {
+  const SceneMesh floor = scenes::flatFloor(2, 4, 0.5, 3);  // x in [0, 1]
+  auto floor_model = fclModel<::fcl::OBBRSSd>(floor);
+  auto unfinished = std::make_shared<::fcl::BVHModel<::fcl::OBBRSSd>>();
+  unfinished->beginModel();  // beyond the floor's bounds: no pair with it
+  unfinished->addTriangle(Vec3(1.005, 0.0, -0.5), Vec3(1.005, 0.0, 1.0), Vec3(1.005, 2.0, 0.0));
+  ::fcl::CollisionObjectd floor_object(floor_model), wall(unfinished);
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = Vec3(1.005 - 0.01 - 0.2, 1.0, 0.1 - 0.002);  // half extents 0.2, 0.15, 0.1
+  ::fcl::CollisionObjectd box(std::make_shared<::fcl::Boxd>(0.4, 0.3, 0.2), tf);
+  tf.translation() = Vec3(0.795, 1.0, 0.198 + 0.01 + 0.2);  // 1 cm over the box's bounds, clear of the floor
+  ::fcl::CollisionObjectd ball(std::make_shared<::fcl::Sphered>(0.2), tf);
+  ASSERT_FALSE(ball.getAABB().overlap(box.getAABB()));
+  ASSERT_FALSE(wall.getAABB().overlap(box.getAABB()));
+  ASSERT_FALSE(wall.getAABB().overlap(floor_object.getAABB()));
+  ::fcl::DynamicAABBTreeCollisionManagerd manager;
+  for (::fcl::CollisionObjectd* o : {&floor_object, &wall, &box, &ball}) manager.registerObject(o);
+  manager.setup();
+  fcl::Options options;
+  options.settings.contact_distance = 0.02;
+  for (const bool mesh_manager : {true, false}) {
+    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(100, true), options);
+    if (mesh_manager) collector.setMeshManager(&manager);
+    manager.collide(&collector, fcl::BroadphaseCollector::callback);
+    const Status s = collector.finish();
+    if (mesh_manager) {
+      EXPECT_EQ(s.code(), ErrorCode::kMeshNotBuilt) << s.message();
+      EXPECT_NE(s.message().find("a mesh of the group: the BVHModel is not finished"), std::string::npos)
+          << s.message();
+    } else {
+      EXPECT_TRUE(s.isOk()) << s.message();
+      int on_floor = 0;
+      for (const fcl::ObjectContact& c : collector.contacts()) on_floor += c.o1 == &floor_object && c.o2 == &box;
+      EXPECT_GT(on_floor, 0);
+    }
+  }
+}
+
 TEST(Broadphase, ForwardsShapePairsAndReportsErrors) {
   const TiledWorld world(Pose::identity());
   ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
