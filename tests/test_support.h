@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -153,6 +154,16 @@ inline std::vector<scenes::SceneMesh> cutMesh(const scenes::SceneMesh& scene, in
     original[j].push_back(static_cast<std::uint32_t>(t));
   }
   return pieces;
+}
+
+/// cutMesh's piece rule for a cut by height: 1 for a triangle whose every
+/// corner lies more than 1e-6 below `z`, else 0.
+inline std::function<int(std::size_t)> belowHeight(const scenes::SceneMesh& scene, double z) {
+  return [&scene, z](std::size_t t) {
+    double top = -std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < 3; ++k) top = std::max(top, scene.vertex(scene.indices[3 * t + k]).z());
+    return top < z - 1e-6 ? 1 : 0;
+  };
 }
 
 /// Builds a mesh or fails the test with the build's message.

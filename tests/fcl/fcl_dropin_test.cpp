@@ -227,14 +227,7 @@ TEST(DropIn, DeepPassesAskTheMeshManagerForMeshesItDidNotPair) {
   std::vector<Pose> frames(2);
   for (Pose& frame : frames) frame.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));
   std::vector<std::vector<std::uint32_t>> original;
-  const std::vector<SceneMesh> pieces = cutMesh(
-      scene, 2,
-      [&](std::size_t t) {
-        double top = -std::numeric_limits<double>::infinity();
-        for (int k = 0; k < 3; ++k) top = std::max(top, scene.vertex(scene.indices[3 * t + k]).z());
-        return top < bottom - 1e-6 ? 1 : 0;
-      },
-      original, frames);
+  const std::vector<SceneMesh> pieces = cutMesh(scene, 2, testing::belowHeight(scene, bottom), original, frames);
   ASSERT_FALSE(original[1].empty());
   Pose mesh_pose;  // moved only: the pieces' world bounds are their own bounds moved
   mesh_pose.translation = rng.uniformVector(Vec3::Constant(-2), Vec3::Constant(2));

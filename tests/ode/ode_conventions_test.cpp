@@ -523,14 +523,7 @@ TEST(OdeConventions, GroupedDeepPassesReachMembersBeyondTheShapesBounds) {
   ASSERT_FALSE(want.empty());
   const double bottom = at.z() - cylinder.half_length;
   std::vector<std::vector<std::uint32_t>> original;
-  const OdeTiles pieces(testing::cutMesh(terrain, 2,
-                                         [&](std::size_t t) {
-                                           double top = -std::numeric_limits<double>::infinity();
-                                           for (int k = 0; k < 3; ++k)
-                                             top = std::max(top, terrain.vertex(terrain.indices[3 * t + k]).z());
-                                           return top < bottom - 1e-6 ? 1 : 0;
-                                         },
-                                         original));
+  const OdeTiles pieces(testing::cutMesh(terrain, 2, testing::belowHeight(terrain, bottom), original));
   dGeomID shape = dCreateCylinder(nullptr, cylinder.radius, 2 * cylinder.half_length);
   dGeomSetPosition(shape, at.x(), at.y(), at.z());
   dReal shape_box[6], below_box[6];

@@ -95,8 +95,9 @@ struct BroadphaseCollector::Impl {
   // Appends member j's triangles in `volume` (its model frame) to `out`,
   // in the group's frame, with mesh index j and its vertex indices as keys.
   Status gatherMember(std::uint32_t j, const detail::QueryVolume& volume, std::vector<CandidateTriangle>& out);
-  // The members' candidates as one surface: welded, keyed by object.
-  Status joinMembers(bool poses_differ, double weld_scale, std::vector<CandidateTriangle>& candidates);
+  // The members' candidates as one surface: welded (when poses_differ, on
+  // weld_scale), keyed by object.
+  Status joinMembers(std::vector<CandidateTriangle>& candidates);
 };
 
 Status BroadphaseCollector::Impl::gatherMember(std::uint32_t j, const detail::QueryVolume& volume,
@@ -122,8 +123,7 @@ Status BroadphaseCollector::Impl::gatherMember(std::uint32_t j, const detail::Qu
   return detail::gatherModel(member.mesh, volume, member.to_frame, j, sc.stack, out);
 }
 
-Status BroadphaseCollector::Impl::joinMembers(bool poses_differ, double weld_scale,
-                                              std::vector<CandidateTriangle>& candidates) {
+Status BroadphaseCollector::Impl::joinMembers(std::vector<CandidateTriangle>& candidates) {
   if (poses_differ) {
     Status s = weldCorners(candidates.data(), candidates.size(), kWeldRoundOff * weld_scale, scratch.impl().query);
     if (!s) return s;
@@ -297,7 +297,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
                      detail::makeQueryVolume(shape, shape_in_model, options.settings.contact_distance), sc.candidates);
     if (!s) return s;
   }
-  s = joinMembers(poses_differ, weld_scale, sc.candidates);
+  s = joinMembers(sc.candidates);
   if (!s) return s;
   QuerySettings settings = options.settings;
   settings.key_mode = KeyMode::kVertexPosition;
@@ -330,7 +330,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
         Status s = impl.gatherMember(static_cast<std::uint32_t>(j), detail::boxQueryVolume(c - h, c + h), out);
         if (!s) return s;
       }
-      return impl.joinMembers(impl.poses_differ, impl.weld_scale, out);
+      return impl.joinMembers(out);
     }
   } deeper(*this);
   s = detail::collideCandidates(shape, shape_in_frame, sc.candidates.data(), sc.candidates.size(), settings, sc.query,
