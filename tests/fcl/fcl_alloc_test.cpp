@@ -80,23 +80,36 @@ TEST(FclAllocation, BroadphaseCollectorOnceWarm) {
     pose.translation = Vec3(0.8 + 1.2 * (i % 3), 0.8 + 1.2 * (i / 3), rng.uniform(-0.5, 1.0) * shape.halfSize());
     shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(shape.make(), fcltest::toTransform(pose)));
   }
+  // And a sphere 5 mm over the floor, clear of the others: its bounds do
+  // not overlap the tiles' (zero-thick), so only the shapes' manager
+  // (setShapeManager) has it queried, within the contact distance.
+  Pose hover;
+  hover.translation = Vec3(3.9, 0.1, 0.1 + 0.005);
+  shapes.push_back(std::make_unique<::fcl::CollisionObjectd>(std::make_shared<::fcl::Sphered>(0.1),
+                                                             fcltest::toTransform(hover)));
+  const ::fcl::CollisionObjectd* hovering = shapes.back().get();
+  for (const auto& t : tiles) ASSERT_FALSE(t->getAABB().overlap(hovering->getAABB()));
   ::fcl::DynamicAABBTreeCollisionManagerd manager;
   for (const auto& t : tiles) manager.registerObject(t.get());
   for (const auto& sh : shapes) manager.registerObject(sh.get());
   manager.setup();
-  // With the manager given (setMeshManager) and a contact distance, the
-  // collector also asks the manager for the tiles on the boxes the queries
-  // reach (the first gather's and the deep passes').
+  // With the manager given (setMeshManager, setShapeManager) and a contact
+  // distance, the collector also asks the manager for the tiles on the
+  // boxes the queries reach (the first gather's and the deep passes'), and
+  // lists its objects for the shapes paired with no tile.
   for (int variant = 0; variant < 4; ++variant) {
     const bool contacts = variant < 2, mesh_manager = variant % 2 == 1;
     fcl::Options options;
     if (mesh_manager) options.settings.contact_distance = 0.01;
     fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(contacts ? 64 : 1, contacts), options);
-    if (mesh_manager) collector.setMeshManager(&manager);
+    if (mesh_manager) {
+      collector.setMeshManager(&manager);
+      collector.setShapeManager(&manager);
+    }
     const std::string what = std::string(contacts ? "contacts" : "collision checking") +
                              (mesh_manager ? ", with the mesh manager" : "");
     long allocations = 0;
-    std::size_t found = 0;
+    std::size_t found = 0, found_hovering = 0;
     for (int round = 0; round < 2; ++round) {  // round 0 warms up
       collector.clear();
       manager.collide(&collector, fcl::BroadphaseCollector::callback);
@@ -105,9 +118,12 @@ TEST(FclAllocation, BroadphaseCollectorOnceWarm) {
       if (round == 1) allocations = heap::stopCounting();
       ASSERT_TRUE(s.isOk()) << s.message();
       found = collector.contacts().size();
+      found_hovering = 0;
+      for (const fcl::ObjectContact& c : collector.contacts()) found_hovering += c.o2 == hovering;
     }
     EXPECT_EQ(allocations, 0) << what;
     EXPECT_GT(found, 5u) << what;  // the queries found contacts
+    EXPECT_EQ(found_hovering, mesh_manager ? 1u : 0u) << what;
   }
 }
 

@@ -209,7 +209,8 @@ TEST(Broadphase, TilesAreOneSurface) {
   EXPECT_GT(per_pair_ghosts, rounds / 10);  // and per-pair queries do show the ghosts
 }
 
-// Given the tiles' manager (setMeshManager), each shape's contacts are the
+// Given the tiles' manager (setMeshManager; and setShapeManager, for shapes
+// paired with no tile), each shape's contacts are the
 // core's query over all the tiles, also where the query reaches tiles the
 // manager did not pair with the shape: a contact distance of 3 cm, and the
 // deep passes of the support shapes (some sunk 10 cm), on a sine terrain cut
@@ -295,7 +296,10 @@ TEST(Broadphase, GivenTheMeshManagerContactsAreTheCoresOverEveryTile) {
     std::map<const ::fcl::CollisionObjectd*, std::set<int>> paired;  // the tiles the manager paired with a shape
     for (const bool with_manager : {true, false}) {
       fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(1000, true), options);
-      if (with_manager) collector.setMeshManager(&manager);
+      if (with_manager) {
+        collector.setMeshManager(&manager);
+        collector.setShapeManager(&manager);
+      }
       manager.collide(&collector, fcl::BroadphaseCollector::callback);
       ASSERT_TRUE(collector.finish().isOk());
       for (const fcl::ObjectContact& c : collector.contacts()) {
@@ -324,12 +328,11 @@ TEST(Broadphase, GivenTheMeshManagerContactsAreTheCoresOverEveryTile) {
       const ShapeCase& shape = kinds[(static_cast<std::size_t>(round) * 12 + k) % kinds.size()];
       const ::fcl::CollisionObjectd* object = shapes[k].get();
       const ::fcl::CollisionGeometryd* g = object->collisionGeometry().get();
-      // A shape the manager paired with no tile is not queried (fcl.h): no
-      // contacts, whatever the contact distance.
+      // A shape the manager paired with no tile is queried through the
+      // shapes' manager only (setShapeManager): none without it.
       if (paired[object].empty()) {
-        EXPECT_TRUE(per_shape[0][object].empty());
+        EXPECT_TRUE(per_shape[1][object].empty());
         ++never_paired;
-        continue;
       }
       ASSERT_TRUE(shape.core(instances.data(), instances.size(), *g, poses[k], settings, core_scratch, core).isOk());
       std::vector<::fcl::Contactd> expected;
@@ -673,6 +676,50 @@ TEST(Broadphase, TheMeshManagersMeshesAreChecked) {
       for (const fcl::ObjectContact& c : collector.contacts()) on_floor += c.o1 == &floor_object && c.o2 == &box;
       EXPECT_GT(on_floor, 0);
     }
+  }
+}
+
+// A shape queried through the shapes' manager (setShapeManager) only is
+// checked as a paired one: a sphere with a NaN transform, in a manager of
+// its own with a sphere 1 cm over a flat floor, makes finish() report
+// kInvalidPose; the other sphere still gets its contact at a contact distance
+// of 2 cm (finish() goes on after an error). Without the shapes' manager
+// neither is queried (the manager pairs neither with the floor).
+TEST(Broadphase, ShapesTheManagerPairedWithNoMeshAreChecked) {
+  const SceneMesh floor = scenes::flatFloor(4, 4, 0.5, 3);
+  ::fcl::CollisionObjectd floor_object(fclModel<::fcl::OBBRSSd>(floor));
+  auto ball = std::make_shared<::fcl::Sphered>(0.2);
+  ::fcl::Transform3d tf = ::fcl::Transform3d::Identity();
+  tf.translation() = Vec3(0.6, 1.2, 0.2 + 0.01);
+  ::fcl::CollisionObjectd hovering(ball, tf);
+  tf.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  ::fcl::CollisionObjectd lost(ball, tf);
+  ::fcl::DynamicAABBTreeCollisionManagerd meshes, shapes;
+  meshes.registerObject(&floor_object);
+  meshes.setup();
+  shapes.registerObject(&hovering);
+  shapes.registerObject(&lost);
+  shapes.setup();
+  fcl::Options options;
+  options.settings.contact_distance = 0.02;
+  for (const bool shape_manager : {true, false}) {
+    fcl::BroadphaseCollector collector(::fcl::CollisionRequestd(100, true), options);
+    collector.setMeshManager(&meshes);
+    if (shape_manager) collector.setShapeManager(&shapes);
+    shapes.collide(&meshes, &collector, fcl::BroadphaseCollector::callback);
+    const Status s = collector.finish();
+    if (!shape_manager) {
+      EXPECT_TRUE(s.isOk()) << s.message();
+      EXPECT_TRUE(collector.contacts().empty());
+      continue;
+    }
+    EXPECT_EQ(s.code(), ErrorCode::kInvalidPose) << s.message();
+    ASSERT_EQ(collector.contacts().size(), 1u);
+    const fcl::ObjectContact& c = collector.contacts()[0];
+    EXPECT_EQ(c.o1, &floor_object);
+    EXPECT_EQ(c.o2, &hovering);
+    EXPECT_NEAR(c.contact.penetration_depth, -0.01, 1e-12);
+    EXPECT_NEAR(c.contact.normal.z(), 1.0, 1e-12);
   }
 }
 

@@ -49,15 +49,18 @@ TerrainPose terrainPose(scenes::Rng& rng, double z_lo, double z_hi) {
 
 // The contacts of a BroadphaseCollector over `objects` in one
 // DynamicAABBTreeCollisionManager (every pair it reports, forwarded ones too).
-// With `mesh_manager`, the collector is given the manager
-// (BroadphaseCollector::setMeshManager).
+// With `mesh_manager` / `shape_manager`, the collector is given the manager
+// as the meshes' (BroadphaseCollector::setMeshManager) / the shapes'
+// (setShapeManager).
 std::vector<fcl::ObjectContact> collectedContacts(std::initializer_list<::fcl::CollisionObjectd*> objects,
-                                                  const fcl::Options& options, bool mesh_manager = false) {
+                                                  const fcl::Options& options, bool mesh_manager = false,
+                                                  bool shape_manager = false) {
   ::fcl::DynamicAABBTreeCollisionManagerd manager;
   for (::fcl::CollisionObjectd* o : objects) manager.registerObject(o);
   manager.setup();
   fcl::BroadphaseCollector collector(contactsRequest(), options);
   if (mesh_manager) collector.setMeshManager(&manager);
+  if (shape_manager) collector.setShapeManager(&manager);
   manager.collide(&collector, fcl::BroadphaseCollector::callback);
   const Status s = collector.finish();
   EXPECT_TRUE(s.isOk()) << s.message();
@@ -292,6 +295,70 @@ TEST(DropIn, ContactDistanceAsksTheMeshManagerForMeshesItDidNotPair) {
       EXPECT_EQ(compareContacts(grouped, expected, 1e-12), "");
     else
       EXPECT_NE(compareContacts(grouped, expected, 1e-12), "") << "the control";
+  }
+}
+
+// A shape within the contact distance of a mesh whose bounds its own do not
+// overlap is never reported by the manager: a sphere 1 cm and a box 1.5 cm
+// above a flat floor (zero-thick bounds; both unrotated, as FCL bounds a
+// rotated object by its bounding sphere), contact distance 2 cm. With
+// the shapes' manager (setShapeManager) each gets the core's contacts on the
+// floor, in the order of their bounds; a capsule 1 m up gets none. Without
+// it (the control) none of them is queried.
+TEST(DropIn, ContactDistanceQueriesShapesTheManagerPairedWithNoMesh) {
+  const SceneMesh floor = scenes::flatFloor(8, 8, 0.25, 5);
+  const TriangleMesh core_floor = testing::buildMesh(floor);
+  const MeshInstance instance{&core_floor, Pose::identity()};
+  Sphere sphere;
+  sphere.radius = 0.2;
+  const Box box{Vec3(0.2, 0.15, 0.1)};
+  const Capsule capsule{0.1, 0.2};
+  Pose box_pose, capsule_pose;
+  sphere.center = Vec3(0.6, 1.0, 0.2 + 0.01);
+  box_pose.translation = Vec3(1.4, 1.0, box.half_extents.z() + 0.015);
+  capsule_pose.translation = Vec3(1.0, 1.0, 1.0);
+  QuerySettings settings;
+  settings.contact_distance = 0.02;
+  QueryScratch core_scratch;
+  std::vector<Contact> core_sphere, core_box;
+  ASSERT_TRUE(collideSphere(&instance, 1, sphere, settings, core_scratch, core_sphere).isOk());
+  ASSERT_TRUE(collideBox(&instance, 1, box, box_pose, settings, core_scratch, core_box).isOk());
+  ASSERT_EQ(core_sphere.size(), 1u);
+  EXPECT_NEAR(core_sphere[0].depth, -0.01, 1e-12);
+  ASSERT_FALSE(core_box.empty());
+  for (const Contact& c : core_box) EXPECT_NEAR(c.depth, -0.015, 1e-12);
+
+  auto floor_model = fclModel<::fcl::OBBRSSd>(floor);
+  auto sphere_shape = std::make_shared<::fcl::Sphered>(sphere.radius);
+  auto box_shape = std::make_shared<::fcl::Boxd>(2 * box.half_extents);
+  auto capsule_shape = std::make_shared<::fcl::Capsuled>(capsule.radius, 2 * capsule.half_length);
+  const Pose sphere_pose{Mat3::Identity(), sphere.center};
+  ::fcl::CollisionObjectd m(floor_model, ::fcl::Transform3d::Identity()), s(sphere_shape, toTransform(sphere_pose)),
+      b(box_shape, toTransform(box_pose)), c(capsule_shape, toTransform(capsule_pose));
+  for (const ::fcl::CollisionObjectd* o : {&s, &b, &c}) ASSERT_FALSE(m.getAABB().overlap(o->getAABB()));
+  // Sphere first: its bounds' lower corner has the smaller x.
+  std::vector<::fcl::Contactd> expected;
+  for (const Contact& k : core_sphere)
+    expected.push_back(expectedContact(k, Pose::identity(), true, floor_model.get(), sphere_shape.get()));
+  const std::size_t sphere_contacts = expected.size();
+  for (const Contact& k : core_box)
+    expected.push_back(expectedContact(k, Pose::identity(), true, floor_model.get(), box_shape.get()));
+  fcl::Options options;
+  options.settings.contact_distance = settings.contact_distance;
+  for (const bool shape_manager : {true, false}) {
+    const std::vector<fcl::ObjectContact> got = collectedContacts({&m, &s, &b, &c}, options, true, shape_manager);
+    if (!shape_manager) {
+      EXPECT_TRUE(got.empty()) << "the control";
+      continue;
+    }
+    ASSERT_EQ(got.size(), expected.size());
+    std::vector<::fcl::Contactd> contacts;
+    for (std::size_t k = 0; k < got.size(); ++k) {
+      EXPECT_EQ(got[k].o1, &m);
+      EXPECT_EQ(got[k].o2, k < sphere_contacts ? &s : &b);
+      contacts.push_back(got[k].contact);
+    }
+    EXPECT_EQ(compareContacts(contacts, expected, 1e-12), "");
   }
 }
 

@@ -9,6 +9,7 @@
 #include <fcl/geometry/shape/box.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 namespace meshcontact::fcl {
@@ -82,7 +83,19 @@ struct BroadphaseCollector::Impl {
   std::unique_ptr<::fcl::CollisionObjectd> probe;
   std::vector<const ::fcl::CollisionObjectd*> reached;
 
-  Status runGroup(const Job& job);
+  // setShapeManager: the manager whose shapes are also queried when no mesh
+  // was paired with them, and finish()'s lists for that pass.
+  const ::fcl::BroadPhaseCollisionManagerd* shape_manager = nullptr;
+  std::vector<::fcl::CollisionObjectd*> listed;                // the shape manager's objects
+  std::vector<const ::fcl::CollisionObjectd*> grouped_shapes;  // sorted: the shapes paired with a mesh
+  std::vector<const ::fcl::CollisionObjectd*> unpaired;
+
+  // The group of `shape_object` and the meshes of pairs[begin, end) (none
+  // for a shape no mesh was paired with: then only those mesh_manager gives).
+  Status runGroup(const ::fcl::CollisionObjectd* shape_object, std::uint32_t begin, std::uint32_t end);
+  // Queries the shapes of shape_manager that no mesh was paired with (after
+  // `jobs` are made), in the order of their bounds' lower corners.
+  Status runUnpaired();
   Status runForwarded(const Pair& pair);
   // Appends group_meshes[j] to the members (checked as a pair with the
   // group's shape, mapped to the group's frame); `shape_in_model`: the
@@ -223,8 +236,8 @@ Status BroadphaseCollector::Impl::runForwarded(const Pair& pair) {
   return Status::ok();
 }
 
-Status BroadphaseCollector::Impl::runGroup(const Job& job) {
-  const ::fcl::CollisionObjectd* shape_object = pairs[job.begin].a;
+Status BroadphaseCollector::Impl::runGroup(const ::fcl::CollisionObjectd* shape_object, std::uint32_t begin,
+                                           std::uint32_t end) {
   detail::ShapeDesc shape;
   detail::describeShape(shape_object->collisionGeometry().get(), shape);
   Pose shape_pose;
@@ -233,7 +246,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
 
   group_meshes.clear();
   group_geometries.clear();
-  for (std::uint32_t i = job.begin; i < job.end; ++i) {
+  for (std::uint32_t i = begin; i < end; ++i) {
     const ::fcl::CollisionObjectd* m = pairs[i].b;
     if (std::find(group_meshes.begin(), group_meshes.end(), m) != group_meshes.end()) continue;
     group_meshes.push_back(m);
@@ -247,6 +260,7 @@ Status BroadphaseCollector::Impl::runGroup(const Job& job) {
     const ::fcl::AABBd& box = shape_object->getAABB();
     reachMeshes(box.min_ - Vec3::Constant(cd), box.max_ + Vec3::Constant(cd));
   }
+  if (group_meshes.empty()) return Status::ok();  // an unpaired shape with no mesh within reach
   // Collision checking (a boolean request wanting one contact, as collide()
   // defines it): whether the shape touches any of its meshes, the OR of the
   // pairs' answers, which seams do not change. Each pair gets collide()'s
@@ -380,7 +394,51 @@ Status BroadphaseCollector::finish() {
             [](const Impl::Job& x, const Impl::Job& y) { return x.first_seq < y.first_seq; });
   Status first_error;
   for (const Impl::Job& job : impl.jobs) {
-    Status s = job.grouped ? impl.runGroup(job) : impl.runForwarded(pairs[job.begin]);
+    Status s = job.grouped ? impl.runGroup(pairs[job.begin].a, job.begin, job.end)
+                           : impl.runForwarded(pairs[job.begin]);
+    if (!s && first_error.isOk()) first_error = std::move(s);
+  }
+  if (impl.shape_manager != nullptr && impl.mesh_manager != nullptr && cd > 0.0 && !impl.request.enable_cost) {
+    Status s = impl.runUnpaired();
+    if (!s && first_error.isOk()) first_error = std::move(s);
+  }
+  return first_error;
+}
+
+Status BroadphaseCollector::Impl::runUnpaired() {
+  grouped_shapes.clear();
+  for (const Job& job : jobs)
+    if (job.grouped) grouped_shapes.push_back(pairs[job.begin].a);
+  std::sort(grouped_shapes.begin(), grouped_shapes.end(), std::less<const ::fcl::CollisionObjectd*>());
+  listed.clear();
+  shape_manager->getObjects(listed);
+  unpaired.clear();
+  for (const ::fcl::CollisionObjectd* o : listed) {
+    detail::ShapeDesc shape;
+    if (!detail::describeShape(o->collisionGeometry().get(), shape)) continue;  // a mesh, or not a shape we query
+    if (std::binary_search(grouped_shapes.begin(), grouped_shapes.end(), o,
+                           std::less<const ::fcl::CollisionObjectd*>()))
+      continue;
+    unpaired.push_back(o);
+  }
+  // FCL's managers list their objects in the order of a hash of their
+  // addresses, which changes from run to run: ordered by where they are
+  // instead (the address breaks only exact ties). Bounds with a NaN (a NaN
+  // transform: runGroup reports it) go last, so that the order stays a
+  // strict weak one.
+  std::sort(unpaired.begin(), unpaired.end(), [](const ::fcl::CollisionObjectd* x, const ::fcl::CollisionObjectd* y) {
+    const Vec3& a = x->getAABB().min_;
+    const Vec3& b = y->getAABB().min_;
+    for (int k = 0; k < 3; ++k) {
+      const bool a_nan = std::isnan(a[k]), b_nan = std::isnan(b[k]);
+      if (a_nan != b_nan) return b_nan;
+      if (!a_nan && a[k] != b[k]) return a[k] < b[k];
+    }
+    return std::less<const ::fcl::CollisionObjectd*>()(x, y);
+  });
+  Status first_error;
+  for (const ::fcl::CollisionObjectd* o : unpaired) {
+    Status s = runGroup(o, 0, 0);
     if (!s && first_error.isOk()) first_error = std::move(s);
   }
   return first_error;
@@ -394,6 +452,10 @@ Status BroadphaseCollector::finish(::fcl::CollisionResultd& result) {
 
 void BroadphaseCollector::setMeshManager(const ::fcl::BroadPhaseCollisionManagerd* meshes) {
   impl_->mesh_manager = meshes;
+}
+
+void BroadphaseCollector::setShapeManager(const ::fcl::BroadPhaseCollisionManagerd* shapes) {
+  impl_->shape_manager = shapes;
 }
 
 const std::vector<ObjectContact>& BroadphaseCollector::contacts() const { return impl_->contacts; }

@@ -409,10 +409,31 @@ class BroadphaseCollector {
   /// shape, and queries them with the shape's others, checked as they are
   /// (the same errors): a mesh 1 cm beside a box's bounds gives contacts at
   /// a contact distance of 2 cm. Without it those meshes are not asked.
-  /// Only shapes the manager paired with some mesh are queried. Each box
-  /// costs a query of the manager's tree (fcl_broadphase_bench:
-  /// +2-3% per pass); the manager must not change until finish() returns.
+  /// Only shapes the manager paired with some mesh are queried, unless
+  /// setShapeManager() names the shapes' manager. Each box costs a query of
+  /// the manager's tree (fcl_broadphase_bench: +2-3% per pass); the manager
+  /// must not change until finish() returns.
   void setMeshManager(const ::fcl::BroadPhaseCollisionManagerd* meshes);
+  /// The manager that holds the shapes (the same one as setMeshManager's
+  /// when one manager holds both), kept for the passes to come; null (the
+  /// default) forgets it. A manager reports a shape only with the meshes
+  /// whose bounds overlap its own, so a shape within a positive contact
+  /// distance of a mesh may be paired with none: a sphere 1 cm above a flat
+  /// floor, whose bounds are zero-thick, is never reported. With both
+  /// managers set and Options::settings.contact_distance > 0, finish() also
+  /// queries every shape of this manager that no mesh was paired with
+  /// (those the collector handles: sphere, capsule, box, cylinder, cone,
+  /// ellipsoid, convex) on the meshes of the mesh manager within the
+  /// contact distance of its bounds, as a paired shape's group (the same
+  /// contacts and errors; a NaN transform is reported). Their contacts
+  /// follow the paired shapes', shape by shape in the order of their
+  /// bounds' lower corners (x, then y, then z): the managers list their
+  /// objects in an order of their addresses, which changes from run to
+  /// run. Costs a pass over the manager's objects and, per unpaired shape,
+  /// a query of the mesh manager's tree; the manager must not change until
+  /// finish() returns. Ignored with request.enable_cost (every pair is then
+  /// forwarded to fcl::collide).
+  void setShapeManager(const ::fcl::BroadPhaseCollisionManagerd* shapes);
   /// Forgets the collected pairs and contacts (keeps the memory).
   void clear();
 
