@@ -251,6 +251,39 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
 // accepts the shape's pose relative to it, and its unit normals, rotated into
 // the world by R, would come out up to ~1e-9 off unit length. dContactGeom
 // normals must be unit whatever rotation ODE holds.
+// ODE's spaces pair two geoms only where their AABBs overlap, and a
+// trimesh's AABB is its vertices' bounds: a flat floor's is zero-thick. So a
+// sphere 1 cm over it, within a contact distance of 2 cm, is never handed to
+// the collider by dSpaceCollide (ode.h, Settings::query says so); dCollide on
+// the pair gives its contact, 1 cm from touching (depth -0.01), as the core.
+TEST(OdeConventions, SpacesPairOnlyOverlappingBoundsWhileDCollideReachesTheContactDistance) {
+  Session session;
+  ode::Settings settings;
+  settings.query.contact_distance = 0.02;
+  ASSERT_TRUE(ode::installColliders(settings).isOk());
+  OdeMesh floor(scenes::flatFloor(4, 4, 0.5, 9));
+  dGeomID sphere = dCreateSphere(nullptr, 0.2);
+  dGeomSetPosition(sphere, 1.1, 0.9, 0.2 + 0.01);
+  dSpaceID space = dSimpleSpaceCreate(nullptr);
+  dSpaceAdd(space, floor.geom);
+  dSpaceAdd(space, sphere);
+  dReal floor_box[6], sphere_box[6];
+  dGeomGetAABB(floor.geom, floor_box);
+  dGeomGetAABB(sphere, sphere_box);
+  EXPECT_EQ(floor_box[5], 0.0);             // zero-thick
+  EXPECT_NEAR(sphere_box[4], 0.01, 1e-12);  // 1 cm above it
+  int pairs = 0;
+  dSpaceCollide(space, &pairs, [](void* data, dGeomID, dGeomID) { ++*static_cast<int*>(data); });
+  EXPECT_EQ(pairs, 0);
+  dContactGeom contacts[8];
+  ASSERT_EQ(dCollide(sphere, floor.geom, 8, contacts, sizeof(dContactGeom)), 1);
+  EXPECT_NEAR(contacts[0].depth, -0.01, 1e-12);
+  EXPECT_NEAR(contacts[0].normal[2], 1.0, 1e-12);  // moving g1, the sphere, along it separates: up
+  dSpaceRemove(space, floor.geom);
+  dGeomDestroy(sphere);  // removes it from the space
+  dSpaceDestroy(space);
+}
+
 TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());

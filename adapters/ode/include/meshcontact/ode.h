@@ -113,6 +113,13 @@ struct Settings {
   /// scale, so units are world units). `query.trace` is ignored.
   /// Defaults: contact_distance 0 (ODE contacts have depth >= 0), the
   /// voided-features filter, manifold reduction to 4 contacts per manifold.
+  /// A positive contact distance reaches only pairs that get here: ODE's
+  /// spaces (dSpaceCollide) report two geoms only where their AABBs
+  /// overlap, and a trimesh's AABB is its vertices' bounds (a flat floor's
+  /// is zero-thick), so a sphere 1 cm over a floor is never reported.
+  /// dCollide on the pair, or collideWithGroup, gives its contact; a near
+  /// callback that wants speculative contacts from a space must call them
+  /// for the pairs within the distance itself.
   QuerySettings query;
   /// Which collider pairs installColliders() replaces; the others keep ODE's
   /// native collider.
