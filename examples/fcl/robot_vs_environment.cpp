@@ -257,11 +257,11 @@ int main() {
     // no mesh, on the meshes within the margin.
     meshcontact::fcl::Options margin;
     margin.settings.contact_distance = 0.05;
-    meshcontact::fcl::BroadphaseCollector near(fcl::CollisionRequestd(10000, true), margin);
-    near.setMeshManager(&environment);
-    near.setShapeManager(&arm);
-    environment.collide(&arm, &near, meshcontact::fcl::BroadphaseCollector::callback);
-    if (meshcontact::Status s = near.finish(); !s) {
+    meshcontact::fcl::BroadphaseCollector clearance(fcl::CollisionRequestd(10000, true), margin);
+    clearance.setMeshManager(&environment);
+    clearance.setShapeManager(&arm);
+    environment.collide(&arm, &clearance, meshcontact::fcl::BroadphaseCollector::callback);
+    if (meshcontact::Status s = clearance.finish(); !s) {
       std::fprintf(stderr, "meshcontact: %s\n", s.message().c_str());
       return 1;
     }
@@ -269,7 +269,7 @@ int main() {
     int near_links = 0;
     for (Part& link : robot.links) {
       double distance = INFINITY;
-      for (const meshcontact::fcl::ObjectContact& oc : near.contacts())
+      for (const meshcontact::fcl::ObjectContact& oc : clearance.contacts())
         if (oc.o2 == link.object.get()) distance = std::min(distance, -oc.contact.penetration_depth);
       if (std::isinf(distance)) continue;
       std::printf(" %s %.1f mm", link.name.c_str(), 1000 * distance);

@@ -93,9 +93,10 @@ struct BroadphaseCollector::Impl {
   // The group of `shape_object` and the meshes of pairs[begin, end) (none
   // for a shape no mesh was paired with: then only those mesh_manager gives).
   Status runGroup(const ::fcl::CollisionObjectd* shape_object, std::uint32_t begin, std::uint32_t end);
-  // Queries the shapes of shape_manager that no mesh was paired with (after
-  // `jobs` are made), in the order of their bounds' lower corners.
-  Status runUnpaired();
+  // Lists in `unpaired` the shapes of shape_manager that no mesh was paired
+  // with (after `jobs` are made), in the order of their bounds' lower
+  // corners.
+  void listUnpaired();
   Status runForwarded(const Pair& pair);
   // Appends group_meshes[j] to the members (checked as a pair with the
   // group's shape, mapped to the group's frame); `shape_in_model`: the
@@ -393,19 +394,20 @@ Status BroadphaseCollector::finish() {
   std::sort(impl.jobs.begin(), impl.jobs.end(),
             [](const Impl::Job& x, const Impl::Job& y) { return x.first_seq < y.first_seq; });
   Status first_error;
-  for (const Impl::Job& job : impl.jobs) {
-    Status s = job.grouped ? impl.runGroup(pairs[job.begin].a, job.begin, job.end)
-                           : impl.runForwarded(pairs[job.begin]);
+  const auto keepFirst = [&first_error](Status s) {
     if (!s && first_error.isOk()) first_error = std::move(s);
-  }
+  };
+  for (const Impl::Job& job : impl.jobs)
+    keepFirst(job.grouped ? impl.runGroup(pairs[job.begin].a, job.begin, job.end)
+                          : impl.runForwarded(pairs[job.begin]));
   if (impl.shape_manager != nullptr && impl.mesh_manager != nullptr && cd > 0.0 && !impl.request.enable_cost) {
-    Status s = impl.runUnpaired();
-    if (!s && first_error.isOk()) first_error = std::move(s);
+    impl.listUnpaired();
+    for (const ::fcl::CollisionObjectd* o : impl.unpaired) keepFirst(impl.runGroup(o, 0, 0));
   }
   return first_error;
 }
 
-Status BroadphaseCollector::Impl::runUnpaired() {
+void BroadphaseCollector::Impl::listUnpaired() {
   grouped_shapes.clear();
   for (const Job& job : jobs)
     if (job.grouped) grouped_shapes.push_back(pairs[job.begin].a);
@@ -436,12 +438,6 @@ Status BroadphaseCollector::Impl::runUnpaired() {
     }
     return std::less<const ::fcl::CollisionObjectd*>()(x, y);
   });
-  Status first_error;
-  for (const ::fcl::CollisionObjectd* o : unpaired) {
-    Status s = runGroup(o, 0, 0);
-    if (!s && first_error.isOk()) first_error = std::move(s);
-  }
-  return first_error;
 }
 
 Status BroadphaseCollector::finish(::fcl::CollisionResultd& result) {
