@@ -246,11 +246,6 @@ TEST(OdeConventions, ContactsAreTheCoresConvertedInBothOrders) {
   }
 }
 
-// A trimesh whose rotation is orthonormal only to the core's tolerance
-// (testing::rotationAtValidationTolerance, about the identity): the core
-// accepts the shape's pose relative to it, and its unit normals, rotated into
-// the world by R, would come out up to ~1e-9 off unit length. dContactGeom
-// normals must be unit whatever rotation ODE holds.
 // ODE's spaces pair two geoms only where their AABBs overlap, and a
 // trimesh's AABB is its vertices' bounds: a flat floor's is zero-thick. So a
 // sphere 1 cm over it, within a contact distance of 2 cm, is never handed to
@@ -284,6 +279,11 @@ TEST(OdeConventions, SpacesPairOnlyOverlappingBoundsWhileDCollideReachesTheConta
   dSpaceDestroy(space);
 }
 
+// A trimesh whose rotation is orthonormal only to the core's tolerance
+// (testing::rotationAtValidationTolerance, about the identity): the core
+// accepts the shape's pose relative to it, and its unit normals, rotated into
+// the world by R, would come out up to ~1e-9 off unit length. dContactGeom
+// normals must be unit whatever rotation ODE holds.
 TEST(OdeConventions, NormalsStayUnitUnderATrimeshRotationAtTheTolerance) {
   Session session;
   ASSERT_TRUE(ode::installColliders().isOk());
