@@ -56,8 +56,13 @@ TEST(FclConcurrency, ThreadsSharingABVHModelGiveTheSingleThreadResult) {
     poses.push_back(fcltest::toTransform(p));
   }
 
+  // One mesh object, made before any thread starts, shared by all of them
+  // (the queries only read it). FCL's CollisionObject constructor writes
+  // the geometry's local bounds (computeLocalAABB): one made per thread
+  // wrote the shared model from every thread at once, a data race that
+  // ThreadSanitizer reported in one CI run of many.
+  const ::fcl::CollisionObjectd mesh_object(model, model_pose);
   auto runAll = [&](Results& out) {
-    ::fcl::CollisionObjectd mesh_object(model, model_pose);
     fcl::Scratch scratch;
     fcl::Options options;
     options.cache = &cache;

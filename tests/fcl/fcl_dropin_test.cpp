@@ -1028,8 +1028,10 @@ TEST(DropIn, ThreadsGetTheSameAnswers) {
     p.translation = rng.uniformVector(Vec3(0.5, 0.5, -0.3), Vec3(4.5, 4.5, 0.6));
     poses.push_back(p);
   }
+  // Made once, before the threads: FCL's CollisionObject constructor writes
+  // the shared model's local bounds (see fcl_concurrency_test).
+  const ::fcl::CollisionObjectd m(model);
   auto run = [&](std::vector<std::vector<::fcl::Contactd>>& out) {
-    ::fcl::CollisionObjectd m(model);
     for (const Pose& p : poses) {
       ::fcl::CollisionObjectd s(std::make_shared<::fcl::Boxd>(0.5, 0.4, 0.3), toTransform(p));
       ::fcl::CollisionResultd r;
