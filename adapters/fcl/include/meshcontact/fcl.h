@@ -78,7 +78,11 @@
 //
 // Threads: all entry points are reentrant. The drop-in collide() keeps its
 // scratch memory in a thread_local Scratch (no allocation per query once
-// warm); the Status variants take the Scratch explicitly.
+// warm); the Status variants take the Scratch explicitly. They only read the
+// objects and models, so threads may share them; FCL itself does not: its
+// CollisionObject constructor writes the geometry's local bounds
+// (computeLocalAABB), so make the objects of a shared model before the
+// threads start (tests/fcl/fcl_concurrency_test.cpp).
 
 #include <meshcontact/contact.h>
 #include <meshcontact/status.h>
