@@ -200,27 +200,25 @@ struct CapsuleNarrowphase {
     // vertex reach it through their own edges, each rounded its own way, so
     // the frame's round-off chose which of the tied triangles ranked first
     // and kept its patch (whose line along its edge differs): capsules near
-    // the sine terrains of SurfaceInvariance.TurningTheWholeSceneKeepsTheContacts,
-    // at 20,000 placements, changed contacts at 16 of 30,231 touching ones
-    // when the scene was turned (5 now). Now the edge from its lexicographically smaller end, and
-    // a vertex by itself (the point to the front core): the pairs tie
-    // exactly where the front cores agree, and the (mesh, triangle) order
-    // breaks the tie in every frame. Once per triangle within reach, for
-    // the pair found: +1.5-1.8% instructions per capsule query (callgrind,
-    // fcl_bench's Core capsule poses), where walking all three edges that
-    // way cost 7.5% of the time.
+    // the sine terrains of
+    // SurfaceInvariance.TurningTheWholeSceneKeepsTheContacts, at 20,000
+    // placements, changed contacts at 16 of 30,231 touching ones when the
+    // scene was turned (5 now). Now the edge from its lexicographically
+    // smaller end, and a vertex by itself (the front core against the
+    // vertex): the pairs tie exactly where the front cores agree, and the
+    // (mesh, triangle) order breaks the tie in every frame. Once per
+    // triangle within reach, for the pair found: +1.5-1.8% instructions per
+    // capsule query (callgrind, fcl_bench's Core capsule poses), where
+    // walking all three edges that way cost 7.5% of the time.
     if (best.distance2 <= reach * reach) {
       const int k = best_edge;
       const Vec3& a = v[k];
       const Vec3& b = v[(k + 1) % 3];
       if (best.t <= 0.0 || best.t >= 1.0) {
-        const Vec3& vertex = best.t <= 0.0 ? a : b;
-        const Vec3 d = front1 - front0;
-        const double d2 = d.squaredNorm();
-        best.s = d2 > 0.0 ? std::clamp((vertex - front0).dot(d) / d2, 0.0, 1.0) : 0.0;
-        best.p = front0 + best.s * d;
-        best.q = vertex;
-        best.distance2 = (best.p - vertex).squaredNorm();
+        const double t = best.t <= 0.0 ? 0.0 : 1.0;  // which end: the feature
+        const Vec3& vertex = t == 0.0 ? a : b;
+        best = detail::closestSegmentSegment(front0, front1, vertex, vertex);
+        best.t = t;
       } else if (std::lexicographical_compare(b.data(), b.data() + 3, a.data(), a.data() + 3)) {
         best = detail::closestSegmentSegment(front0, front1, b, a);
         best.t = 1.0 - best.t;  // along v_k -> v_k+1, as before
